@@ -1,0 +1,297 @@
+"""Bearing geometry and materials as data, and the equivalent contact quantities.
+
+The default bearing is the 2D SKF 6208 of the seed paper (Machado, Guessasma, Bellenger,
+*Modelling of ball bearing loading by DEM for electromechanical coupling*), table 1:
+13 steel balls, 13 polyamide cage balls. Every quantity is SI and carries its unit in its name.
+
+Contact types (seed table 2) are indexed by the constants ``INNER``, ``OUTER``, ``BALL_CAGE``,
+``CAGE_WALL`` and ``BALL_BALL``. The seed's "cage/cage" row (``R_eq = r_i``, ``m* = m_i``: the
+quantities of one body against a rigid surface) is read here as a cage ball against one of the two
+frictionless cage boundaries; cage balls never touch each other because a rolling ball always
+stands between two of them. ``BALL_BALL`` (steel on steel, frictionless) only exists when the cage
+effect is off.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, fields, replace
+
+import numpy as np
+
+# Contact-type indices, shared by the kernels, the stability estimate and the tests.
+INNER, OUTER, BALL_CAGE, CAGE_WALL, BALL_BALL = range(5)
+CONTACT_TYPES = ("inner", "outer", "ball_cage", "cage_wall", "ball_ball")
+
+STANDARD_GRAVITY_M_S2 = 9.80665
+
+
+class BearingError(ValueError):
+    """A bearing description that is not physical; the message names the field."""
+
+
+@dataclass(frozen=True)
+class Material:
+    """An isotropic elastic material."""
+
+    name: str
+    youngs_modulus_pa: float
+    poisson: float
+    density_kg_m3: float
+
+    @property
+    def shear_modulus_pa(self) -> float:
+        """G = E / (2 (1 + nu)) (seed, after eq. 7)."""
+        return self.youngs_modulus_pa / (2.0 * (1.0 + self.poisson))
+
+    @property
+    def plane_strain_modulus_pa(self) -> float:
+        """E_eq = E / (1 - nu^2) (seed section 3, used by eq. 18)."""
+        return self.youngs_modulus_pa / (1.0 - self.poisson**2)
+
+
+#: Bearing steel of the seed (section 2.2): E_b = 203 GPa, nu_b = 0.3.
+STEEL = Material("steel", 203e9, 0.3, 7850.0)
+#: Polyamide of the cage balls (section 2.2): E_c = 3 GPa, nu_c = 0.3 (PA66 density).
+POLYAMIDE = Material("polyamide", 3e9, 0.3, 1140.0)
+
+MATERIALS = {m.name: m for m in (STEEL, POLYAMIDE)}
+
+
+@dataclass(frozen=True)
+class Bearing:
+    """Geometry and materials of a radial ball bearing, 2D model of the seed (section 2.2).
+
+    ``outer_race_radius_m`` is the outer race radius at zero clearance (table 1 gives it for
+    Delta_r = 0), so it must equal ``inner_race_radius_m + 2 * ball_radius_m``; the clearance or
+    preload of a scene moves it (eq. 14). Masses are those of 3D spheres (the seed's discrete
+    elements are spheres).
+    """
+
+    name: str = "SKF 6208 (2D model of the seed, table 1)"
+    n_balls: int = 13
+    outer_race_radius_m: float = 36.60e-3
+    inner_race_radius_m: float = 24.00e-3
+    outer_groove_radius_m: float = 6.65e-3
+    inner_groove_radius_m: float = 6.55e-3
+    ball_radius_m: float = 6.30e-3
+    cage_ball_radius_m: float = 1.00e-3
+    ball_material: Material = STEEL
+    cage_material: Material = POLYAMIDE
+    #: Coulomb coefficient on ball/raceway contacts; all other contacts are frictionless (2.2).
+    friction_coefficient: float = 0.15
+    #: Basic dynamic load rating C_r (NSK 29100 N; SKF gives 32500 N), section 2.2.2.
+    dynamic_load_rating_n: float = 29100.0
+    #: Inner ring mass: a steel ring from the bore (d = 40 mm) to the race, width 18 mm.
+    inner_ring_mass_kg: float = field(
+        default=STEEL.density_kg_m3 * math.pi * (24.0e-3**2 - 20.0e-3**2) * 18.0e-3
+    )
+    #: Electrical conductivity gamma of the ball steel, eq. 16.
+    electrical_conductivity_s_m: float = 5.8e7
+
+    def __post_init__(self) -> None:
+        validate_bearing(self)
+
+    # --- derived geometry -------------------------------------------------------------
+    @property
+    def pitch_radius_m(self) -> float:
+        return self.inner_race_radius_m + self.ball_radius_m
+
+    @property
+    def ball_volume_m3(self) -> float:
+        return 4.0 / 3.0 * math.pi * self.ball_radius_m**3
+
+    @property
+    def ball_mass_kg(self) -> float:
+        return self.ball_material.density_kg_m3 * self.ball_volume_m3
+
+    @property
+    def ball_inertia_kg_m2(self) -> float:
+        """Moment of inertia of a solid sphere, 2/5 m R^2."""
+        return 0.4 * self.ball_mass_kg * self.ball_radius_m**2
+
+    @property
+    def cage_ball_mass_kg(self) -> float:
+        return self.cage_material.density_kg_m3 * 4.0 / 3.0 * math.pi * self.cage_ball_radius_m**3
+
+    def cage_speed_rad_s(self, omega_rad_s: float) -> float:
+        """Kinematic cage (ball orbit) speed, omega R_inn / (R_inn + R_out), outer ring fixed."""
+        return (
+            omega_rad_s
+            * self.inner_race_radius_m
+            / (self.inner_race_radius_m + self.outer_race_radius_m)
+        )
+
+    def ball_spin_rad_s(self, omega_rad_s: float) -> float:
+        """Kinematic ball spin about its own centre (negative: opposite to the inner ring)."""
+        return -self.cage_speed_rad_s(omega_rad_s) * self.pitch_radius_m / self.ball_radius_m
+
+    def ball_pass_frequency_hz(self, omega_rad_s: float) -> float:
+        """Ball-pass frequency over a fixed outer-race point, Z * cage speed / 2 pi."""
+        return self.n_balls * self.cage_speed_rad_s(omega_rad_s) / (2.0 * math.pi)
+
+    # --- serialisation --------------------------------------------------------------
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["ball_material"] = self.ball_material.name
+        d["cage_material"] = self.cage_material.name
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict, section: str = "bearing") -> Bearing:
+        known = {f.name for f in fields(cls)}
+        kwargs = {}
+        for key, value in data.items():
+            if key not in known:
+                raise BearingError(
+                    f"{section}.{key} = {value!r}: unknown key; allowed: {', '.join(sorted(known))}"
+                )
+            if key in ("ball_material", "cage_material"):
+                if isinstance(value, dict):
+                    value = Material(**value)
+                elif value in MATERIALS:
+                    value = MATERIALS[value]
+                else:
+                    raise BearingError(
+                        f"{section}.{key} = {value!r}: unknown material; allowed: "
+                        f"{', '.join(MATERIALS)} or a table with name, youngs_modulus_pa, "
+                        "poisson, density_kg_m3"
+                    )
+            kwargs[key] = value
+        return cls(**kwargs)
+
+    def with_(self, **changes) -> Bearing:
+        return replace(self, **changes)
+
+
+def validate_bearing(b: Bearing, section: str = "bearing") -> None:
+    """Raise :class:`BearingError` naming the first non-physical field."""
+
+    def bad(key: str, value, allowed: str) -> BearingError:
+        return BearingError(f"{section}.{key} = {value!r}: {allowed}")
+
+    if isinstance(b.n_balls, bool) or not isinstance(b.n_balls, int | np.integer):
+        raise bad("n_balls", b.n_balls, "must be an integer >= 3")
+    if b.n_balls < 3:
+        raise bad("n_balls", b.n_balls, "must be an integer >= 3")
+    positive = (
+        "outer_race_radius_m",
+        "inner_race_radius_m",
+        "outer_groove_radius_m",
+        "inner_groove_radius_m",
+        "ball_radius_m",
+        "cage_ball_radius_m",
+        "dynamic_load_rating_n",
+        "inner_ring_mass_kg",
+        "electrical_conductivity_s_m",
+    )
+    for key in positive:
+        v = getattr(b, key)
+        if isinstance(v, bool) or not isinstance(v, int | float | np.floating):
+            raise bad(key, v, "must be a number > 0")
+        if not math.isfinite(v) or v <= 0.0:
+            raise bad(key, v, "must be a finite number > 0")
+    mu = b.friction_coefficient
+    if not isinstance(mu, int | float) or not math.isfinite(mu) or mu < 0.0 or mu > 2.0:
+        raise bad("friction_coefficient", mu, "must be a finite number in [0, 2]")
+    for mat_key in ("ball_material", "cage_material"):
+        m = getattr(b, mat_key)
+        for attr, lo, hi in (
+            ("youngs_modulus_pa", 1e6, 1e13),
+            ("poisson", 0.0, 0.4999),
+            ("density_kg_m3", 1.0, 1e5),
+        ):
+            v = getattr(m, attr)
+            if not isinstance(v, int | float) or not math.isfinite(v) or not lo <= v <= hi:
+                raise bad(f"{mat_key}.{attr}", v, f"must be a finite number in [{lo:g}, {hi:g}]")
+    gap = b.outer_race_radius_m - b.inner_race_radius_m - 2.0 * b.ball_radius_m
+    if abs(gap) > 1e-9:
+        raise bad(
+            "outer_race_radius_m",
+            b.outer_race_radius_m,
+            f"must equal inner_race_radius_m + 2 ball_radius_m = "
+            f"{b.inner_race_radius_m + 2 * b.ball_radius_m:.6g} m (zero-clearance geometry, "
+            "seed eq. 14); set a clearance or preload with clearance_m",
+        )
+    if b.inner_groove_radius_m <= b.ball_radius_m:
+        raise bad(
+            "inner_groove_radius_m",
+            b.inner_groove_radius_m,
+            f"must exceed ball_radius_m = {b.ball_radius_m:g} m (deep groove, seed 2.2)",
+        )
+    if b.outer_groove_radius_m <= b.ball_radius_m:
+        raise bad(
+            "outer_groove_radius_m",
+            b.outer_groove_radius_m,
+            f"must exceed ball_radius_m = {b.ball_radius_m:g} m (deep groove, seed 2.2)",
+        )
+    # Balls and cage balls alternate on the pitch circle: neighbours 2 pi / (2 Z) apart.
+    chord = 2.0 * b.pitch_radius_m * math.sin(math.pi / (2 * b.n_balls))
+    if chord < b.ball_radius_m + b.cage_ball_radius_m:
+        raise bad(
+            "n_balls",
+            b.n_balls,
+            f"{b.n_balls} balls of radius {b.ball_radius_m:g} m and cage balls of radius "
+            f"{b.cage_ball_radius_m:g} m do not fit on the pitch circle of radius "
+            f"{b.pitch_radius_m:g} m (need 2 r_p sin(pi/2Z) >= R_b + R_c)",
+        )
+    if b.cage_ball_radius_m >= b.ball_radius_m:
+        raise bad("cage_ball_radius_m", b.cage_ball_radius_m, "must be smaller than ball_radius_m")
+
+
+# --- equivalent quantities (seed eqs 12-13, table 2) -----------------------------------------
+
+
+def raceway_radii(bearing: Bearing) -> dict[str, tuple[float, float, float, float]]:
+    """Principal radii, equivalent radius and radius ratio of the ball/raceway contacts.
+
+    Returns ``{"inner": (r1, r2, r_eq, alpha), "outer": (...)}`` following seed eq. 12 (inner) and
+    eq. 13 (outer): ``r_eq = r1 r2 / (r1 + r2)`` and ``alpha = r2 / r1``.
+    """
+    rb = bearing.ball_radius_m
+    r1_in = 1.0 / (1.0 / rb + 1.0 / bearing.inner_race_radius_m)
+    r2_in = 1.0 / (1.0 / rb - 1.0 / bearing.inner_groove_radius_m)
+    r1_out = 1.0 / (1.0 / rb - 1.0 / bearing.outer_race_radius_m)
+    r2_out = 1.0 / (1.0 / rb - 1.0 / bearing.outer_groove_radius_m)
+    return {
+        "inner": (r1_in, r2_in, r1_in * r2_in / (r1_in + r2_in), r2_in / r1_in),
+        "outer": (r1_out, r2_out, r1_out * r2_out / (r1_out + r2_out), r2_out / r1_out),
+    }
+
+
+@dataclass(frozen=True)
+class ContactProperties:
+    """Equivalent quantities of one contact type (seed table 2)."""
+
+    name: str
+    shear_modulus_pa: float
+    poisson: float
+    radius_eq_m: float
+    reduced_mass_kg: float
+    friction_coefficient: float
+
+
+def contact_properties(bearing: Bearing) -> tuple[ContactProperties, ...]:
+    """Table 2 of the seed for every contact type, indexed by ``INNER .. BALL_BALL``."""
+    radii = raceway_radii(bearing)
+    gb = bearing.ball_material.shear_modulus_pa
+    gc = bearing.cage_material.shear_modulus_pa
+    nu_b = bearing.ball_material.poisson
+    nu_c = bearing.cage_material.poisson
+    mb, mc = bearing.ball_mass_kg, bearing.cage_ball_mass_kg
+    rb, rc = bearing.ball_radius_m, bearing.cage_ball_radius_m
+    mu = bearing.friction_coefficient
+    return (
+        ContactProperties("inner", gb, nu_b, radii["inner"][2], mb, mu),
+        ContactProperties("outer", gb, nu_b, radii["outer"][2], mb, mu),
+        ContactProperties(
+            "ball_cage",
+            0.5 * (gb + gc),
+            0.5 * (nu_b + nu_c),
+            rb * rc / (rb + rc),
+            mb * mc / (mb + mc),
+            0.0,
+        ),
+        ContactProperties("cage_wall", gc, nu_c, rc, mc, 0.0),
+        ContactProperties("ball_ball", gb, nu_b, 0.5 * rb, 0.5 * mb, 0.0),
+    )

@@ -1,0 +1,174 @@
+"""Command line: ``signatelec simulate | bench | ...``.
+
+Errors in the input print one line ``signatelec: error: <input>: <field> = <value>: <rule>`` and
+exit with code 2, leaving nothing behind; a run that diverges exits with code 3.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from signatelec.io import OutputError
+from signatelec.scene import Scene, SceneError
+
+EXIT_INPUT = 2
+EXIT_DIVERGED = 3
+
+
+class InputError(click.ClickException):
+    exit_code = EXIT_INPUT
+
+
+def load_scene(scene_file: str | None, **overrides) -> Scene:
+    try:
+        scene = Scene.from_toml(scene_file) if scene_file else Scene()
+        return scene.with_overrides(**overrides)
+    except SceneError as exc:
+        where = f"scene {scene_file!r}" if scene_file else "scene"
+        raise InputError(f"{where}: {exc}") from None
+
+
+def check_writable(out: str) -> None:
+    """Fail before a long run when the output location cannot be written."""
+    path = Path(out)
+    parent = path.parent if str(path.parent) else Path(".")
+    probe = parent
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    import os
+
+    if (path.exists() and not path.is_dir()) or not os.access(probe, os.W_OK | os.X_OK):
+        raise InputError(f"--out {out!r}: not a writable directory")
+
+
+@click.group()
+@click.version_option(package_name="signatelec")
+def cli() -> None:
+    """signatelec: DEM ball-bearing simulator and electrical resistance signatures."""
+
+
+@cli.command()
+@click.option("--scene", "scene_file", type=str, default=None, help="Scene TOML (default: seed).")
+@click.option("--radial-load", "radial_load_n", type=float, help="Radial load F_r, N.")
+@click.option("--clearance", "clearance_m", type=float, help="Radial clearance (<0: preload), m.")
+@click.option("--omega", "omega_rad_s", type=float, help="Inner-ring speed, rad/s.")
+@click.option("--duration", "duration_s", type=float, help="Simulated time, s.")
+@click.option("--dt", "dt_s", type=float, help="Time step, s.")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--quiet", is_flag=True, help="No progress bar or summary.")
+def simulate(scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt_s, out, quiet):
+    """Simulate a scene; write DIR/balls.parquet and DIR/signals.parquet."""
+    from signatelec.dem.simulate import DivergenceError
+    from signatelec.dem.simulate import simulate as run
+
+    scene = load_scene(
+        scene_file,
+        radial_load_n=radial_load_n,
+        clearance_m=clearance_m,
+        omega_rad_s=omega_rad_s,
+        duration_s=duration_s,
+        dt_s=dt_s,
+    )
+    check_writable(out)
+    try:
+        result = run(scene, progress=not quiet)
+    except SceneError as exc:
+        raise InputError(str(exc)) from None
+    except DivergenceError as exc:
+        click.echo(f"signatelec: error: {exc}", err=True)
+        sys.exit(EXIT_DIVERGED)
+    try:
+        result.write(out)
+    except OutputError as exc:
+        raise InputError(str(exc)) from None
+    if not quiet:
+        click.echo(summary(result, out))
+
+
+def summary(result, out: str | None = None) -> str:
+    """A readable summary of a run: timings and steady-state figures."""
+    sc = result.scene
+    t = result.timings
+    st = result.steady()
+    b = sc.bearing
+    lines = [
+        f"scene: F_r = {sc.operating.radial_load_n:g} N, clearance = "
+        f"{sc.operating.clearance_m * 1e6:g} um, omega = {sc.operating.omega_rad_s:g} rad/s, "
+        f"dt = {sc.numerics.dt_s:g} s, {sc.numerics.duration_s:g} s",
+        f"run: {t['n_steps']} steps in {t['run_s']:.3f} s ({t['us_per_step']:.3f} us/step), "
+        f"compile/load {t['compile_s']:.2f} s",
+    ]
+    if len(st):
+        kin = b.cage_speed_rad_s(sc.operating.omega_rad_s)
+        lines.append(
+            f"steady state: delta_r = {st.delta_r_m.mean() * 1e6:.2f} um, epsilon = "
+            f"{st.epsilon.mean():.3f}, max ball load = {st.max_ball_load_n.mean():.1f} N, "
+            f"loaded balls = {st.loaded_balls.mean():.2f}, cage speed = "
+            f"{st.cage_speed_rad_s.mean():.2f} rad/s (kinematic {kin:.2f})"
+        )
+        if "resistance_ohm" in st:
+            lines.append(f"resistance: mean {st.resistance_ohm.mean() * 1e3:.4f} mOhm")
+    if out:
+        lines.append(f"wrote {out}/balls.parquet, {out}/signals.parquet")
+    return "\n".join(lines)
+
+
+@cli.command()
+@click.option(
+    "--out",
+    "out",
+    type=str,
+    default="bench.json",
+    show_default=True,
+    help="JSON file for the figures.",
+)
+@click.option(
+    "--duration",
+    "duration_s",
+    type=float,
+    default=0.03,
+    show_default=True,
+    help="Simulated time per case, s.",
+)
+@click.option(
+    "--fresh-cache/--warm-cache",
+    default=True,
+    show_default=True,
+    help="Compile into an empty cache so compile time is measured.",
+)
+def bench(out, duration_s, fresh_cache):
+    """Cost of the seed scene and of reduced effect sets (us per step, compile apart)."""
+    from signatelec.bench import run_bench
+
+    try:
+        report = run_bench(duration_s=duration_s, fresh_cache=fresh_cache)
+    except SceneError as exc:
+        raise InputError(str(exc)) from None
+    check_writable(out)
+    from signatelec.bench import format_table
+
+    click.echo(format_table(report))
+    tmp = Path(out).with_name(Path(out).name + ".tmp")
+    tmp.write_text(json.dumps(report, indent=2))
+    tmp.replace(out)
+    click.echo(f"wrote {out}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    try:
+        cli.main(args=argv, prog_name="signatelec", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except click.Abort:
+        click.echo("signatelec: aborted", err=True)
+        sys.exit(130)
+    except click.ClickException as exc:
+        click.echo(f"signatelec: error: {exc.format_message()}", err=True)
+        sys.exit(EXIT_INPUT)
+    except (SceneError, OutputError) as exc:
+        click.echo(f"signatelec: error: {exc}", err=True)
+        sys.exit(EXIT_INPUT)

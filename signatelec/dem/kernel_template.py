@@ -1,0 +1,519 @@
+"""DEM kernel of the 2D bearing, specialised per effect set.
+
+This file is a template: :mod:`signatelec.dem.kernels` copies it with the flag block below set
+for one effect set and compiles that copy with numba (``cache=True``), so an effect that is off
+is not in the machine code at all. Every array is float64 unless stated; nothing is allocated in
+the time loop.
+
+Bodies, shape (N, 2) with N = 2 Z + 1, [body, xy]: rows 0..Z-1 the balls, Z..2Z-1 the cage balls
+(cage ball j sits between ball j and ball (j + 1) % Z), row 2Z the inner ring. The outer ring is
+fixed, centred at the origin; its race radius follows the clearance phase (seed eq. 14).
+
+Contact forces ``fcon``, shape (Z, 6), [ball, kind]: 0 inner normal, 1 outer normal, 2 inner
+tangential, 3 outer tangential (positive along t = perp(n)), 4 contact with the next body on the
+pitch circle (cage ball j, or ball j+1 without cage), 5 contact of cage ball j with ball j+1.
+
+Integrators: velocity Verlet (2nd order; dissipative forces take the predicted velocity
+v + a dt, which keeps 2nd order) or symplectic Euler (1st order, v then x).
+"""
+
+# fmt: off
+# --- specialisation flags (the line below is rewritten per effect set) -----------------------
+CAGE, FRICTION, DAMPING, LINEAR, SPRING, GRAVITY, CENTRIFUGAL, ENERGY, VERLET = (True, True, True, False, False, True, True, False, True)  # noqa: E501
+# fmt: on
+
+import math
+
+import numpy as np
+from numba import njit
+
+from signatelec import contact as _contact
+
+# No nnan/ninf: the divergence check relies on math.isfinite.
+FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+_jit = njit(cache=True, inline="always", fastmath=FASTMATH)
+hertz_normal_force = _jit(_contact.hertz_normal_force)
+hertz_normal_stiffness = _jit(_contact.hertz_normal_stiffness)
+hertz_elastic_energy = _jit(_contact.hertz_elastic_energy)
+linear_normal_force = _jit(_contact.linear_normal_force)
+linear_elastic_energy = _jit(_contact.linear_elastic_energy)
+critical_damping = _jit(_contact.critical_damping)
+damped_normal_force = _jit(_contact.damped_normal_force)
+tangential_force = _jit(_contact.tangential_force)
+coulomb_limit = _jit(_contact.coulomb_limit)
+
+# Parameter vector layout (see signatelec.dem.simulate.kernel_parameters).
+P_DT, P_RB, P_RC, P_RIN, P_ROUT0, P_CLEAR, P_RP = 0, 1, 2, 3, 4, 5, 6
+P_MB, P_IB, P_MC, P_MI, P_FR, P_OMEGA, P_T1, P_T2, P_T3 = 7, 8, 9, 10, 11, 12, 13, 14, 15
+P_G, P_MU, P_MAXFRAC = 16, 17, 18
+P_COEF = 20  # 5 normal-law coefficients, by contact type
+P_MRED = 25  # 5 reduced masses, by contact type
+P_KT = 30  # 2 tangential stiffness factors (inner, outer): K_t = P_KT * sqrt(delta) (Hertz)
+N_PARAMS = 32
+
+# Status codes written to status[0]; status[1] step, status[2] body, status[3] contact type.
+OK, OVERLAP, NONFINITE = 0, 1, 2
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def schedule(t, p):
+    """Outer race radius and its rate, applied F_r, inner-ring speed at time t (seed 2.2.1-2.2.2).
+
+    Phase ends t1 (clearance), t2 (load), t3 (spin-up); a zero-length phase is a step.
+    Ramps follow (1 - cos(pi s)) / 2, the sinusoidal profile of the seed.
+    """
+    t1, t2, t3 = p[P_T1], p[P_T2], p[P_T3]
+    r_out = p[P_ROUT0] + p[P_CLEAR]
+    r_rate = 0.0
+    if t < t1:
+        s = t / t1
+        r_out = p[P_ROUT0] + p[P_CLEAR] * 0.5 * (1.0 - math.cos(math.pi * s))
+        r_rate = p[P_CLEAR] * 0.5 * math.pi / t1 * math.sin(math.pi * s)
+    fr = p[P_FR]
+    if t < t1:
+        fr = 0.0
+    elif t < t2:
+        fr = p[P_FR] * 0.5 * (1.0 - math.cos(math.pi * (t - t1) / (t2 - t1)))
+    omega = p[P_OMEGA]
+    if t < t2:
+        omega = 0.0
+    elif t < t3:
+        omega = p[P_OMEGA] * 0.5 * (1.0 - math.cos(math.pi * (t - t2) / (t3 - t2)))
+    return r_out, r_rate, fr, omega
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def normal_law(overlap, closing_speed, coef, reduced_mass):
+    """Elastic and total normal force of one contact (seed eqs 3, 5, 8, 9)."""
+    if LINEAR:
+        fe = linear_normal_force(overlap, coef)
+        kn = coef
+    else:
+        fe = hertz_normal_force(overlap, coef)
+        kn = hertz_normal_stiffness(overlap, coef)
+    if DAMPING:
+        fn = damped_normal_force(fe, critical_damping(kn, reduced_mass), closing_speed)
+    else:
+        fn = max(fe, 0.0)
+    return fe, fn
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH)
+def tangential_law(k, side, overlap, slip_speed, fn, p, xi, dt):
+    """Tangential force on a ball/raceway contact: Mindlin stiffness (eq. 7), critical damping
+    (eq. 5), seed displacement v_t dt or accumulated spring, Coulomb limit (eq. 4).
+
+    The seed's delta_t = v_t dt makes F_t = -(K_t dt + C_t) v_t: the model itself depends on dt,
+    so any integrator converges at first order with it; the accumulated spring does not.
+    """
+    if LINEAR:
+        kt = p[P_KT + side]
+    else:
+        kt = p[P_KT + side] * math.sqrt(overlap)
+    ct = 0.0
+    if DAMPING:
+        ct = critical_damping(kt, p[P_MRED + side])
+    if SPRING:
+        # trapezoid rule on d(delta_t)/dt = v_t (xi[:, 2:4] keeps the previous slip speed):
+        # second order, like the Verlet step
+        disp = xi[k, side] + 0.5 * (xi[k, 2 + side] + slip_speed) * dt
+        xi[k, 2 + side] = slip_speed
+    else:
+        disp = slip_speed * dt
+    ft = coulomb_limit(tangential_force(kt, disp, ct, slip_speed), fn, p[P_MU])
+    if SPRING:
+        # On slip, the spring keeps the displacement that gives the Coulomb force.
+        if kt > 0.0:
+            xi[k, side] = -(ft + ct * slip_speed) / kt
+        else:
+            xi[k, side] = 0.0
+    return ft
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status, step):
+    """Accelerations of every body at time t from positions and (predicted) velocities."""
+    z = spin.shape[0]
+    ring = 2 * z
+    dt = p[P_DT]
+    rb, rc, rin, rp = p[P_RB], p[P_RC], p[P_RIN], p[P_RP]
+    mb, ib, mc, mi = p[P_MB], p[P_IB], p[P_MC], p[P_MI]
+    maxfrac = p[P_MAXFRAC]
+    r_out, r_rate, fr, omega = schedule(t, p)
+    sched[0] = r_out
+    sched[1] = fr
+    sched[2] = omega
+    drive_torque = 0.0
+    loss = 0.0
+    work = 0.0
+    elastic = 0.0
+    for i in range(2 * z + 1):
+        acc[i, 0] = 0.0
+        acc[i, 1] = 0.0
+    for k in range(z):
+        spin_acc[k] = 0.0
+    # external loads: F_r along -y on the inner ring (seed 2.2.2), gravity on every body
+    acc[ring, 1] -= fr
+    if ENERGY:
+        work += -fr * vel[ring, 1] * dt
+    if GRAVITY:
+        g = p[P_G]
+        for k in range(z):
+            acc[k, 1] -= mb * g
+            acc[z + k, 1] -= mc * g
+        acc[ring, 1] -= mi * g
+        if ENERGY:
+            wsum = mi * vel[ring, 1]
+            for k in range(z):
+                wsum += mb * vel[k, 1] + mc * vel[z + k, 1]
+            work += -g * wsum * dt
+
+    cin = p[P_COEF + 0]
+    cout = p[P_COEF + 1]
+    for k in range(z):
+        x = pos[k, 0]
+        y = pos[k, 1]
+        # --- ball / inner raceway -----------------------------------------------------
+        dx = x - pos[ring, 0]
+        dy = y - pos[ring, 1]
+        d2 = dx * dx + dy * dy
+        reach = rin + rb
+        if d2 < reach * reach:
+            d = math.sqrt(d2)
+            nx = dx / d
+            ny = dy / d
+            ov = reach - d
+            if ov > maxfrac * rb:
+                status[0] = OVERLAP
+                status[1] = step
+                status[2] = k
+                status[3] = 0
+            rvx = vel[k, 0] - vel[ring, 0]
+            rvy = vel[k, 1] - vel[ring, 1]
+            vclose = -(rvx * nx + rvy * ny)
+            fe, fn = normal_law(ov, vclose, cin, p[P_MRED + 0])
+            fx = fn * nx
+            fy = fn * ny
+            ft = 0.0
+            if FRICTION:
+                vt = -rvx * ny + rvy * nx - spin[k] * rb - omega * rin
+                ft = tangential_law(k, 0, ov, vt, fn, p, xi, dt)
+                fx += -ft * ny
+                fy += ft * nx
+                spin_acc[k] += -rb * ft
+                drive_torque += rin * ft
+                if ENERGY:
+                    loss += -ft * vt * dt
+            acc[k, 0] += fx
+            acc[k, 1] += fy
+            acc[ring, 0] -= fx
+            acc[ring, 1] -= fy
+            fcon[k, 0] = fn
+            fcon[k, 2] = ft
+            if ENERGY:
+                loss += (fn - fe) * vclose * dt
+                if LINEAR:
+                    elastic += linear_elastic_energy(ov, cin)
+                else:
+                    elastic += hertz_elastic_energy(ov, cin)
+        else:
+            fcon[k, 0] = 0.0
+            fcon[k, 2] = 0.0
+            if SPRING:
+                xi[k, 0] = 0.0
+                xi[k, 2] = 0.0
+        # --- ball / outer raceway -----------------------------------------------------
+        r2 = x * x + y * y
+        inside = r_out - rb
+        if r2 > inside * inside or not CENTRIFUGAL:
+            r = math.sqrt(r2)
+            nx = x / r
+            ny = y / r
+            if not CENTRIFUGAL:
+                # cancel the centrifugal load: add the centripetal force m v_t^2 / r (inward)
+                vtan = -vel[k, 0] * ny + vel[k, 1] * nx
+                fcp = mb * vtan * vtan / r
+                acc[k, 0] -= fcp * nx
+                acc[k, 1] -= fcp * ny
+                if ENERGY:
+                    work += -fcp * (vel[k, 0] * nx + vel[k, 1] * ny) * dt
+        if r2 > inside * inside:
+            ov = r + rb - r_out
+            if ov > maxfrac * rb:
+                status[0] = OVERLAP
+                status[1] = step
+                status[2] = k
+                status[3] = 1
+            vclose = vel[k, 0] * nx + vel[k, 1] * ny - r_rate
+            fe, fn = normal_law(ov, vclose, cout, p[P_MRED + 1])
+            fx = -fn * nx
+            fy = -fn * ny
+            ft = 0.0
+            if FRICTION:
+                vt = -vel[k, 0] * ny + vel[k, 1] * nx + spin[k] * rb
+                ft = tangential_law(k, 1, ov, vt, fn, p, xi, dt)
+                fx += -ft * ny
+                fy += ft * nx
+                spin_acc[k] += rb * ft
+                if ENERGY:
+                    loss += -ft * vt * dt
+            acc[k, 0] += fx
+            acc[k, 1] += fy
+            fcon[k, 1] = fn
+            fcon[k, 3] = ft
+            if ENERGY:
+                loss += (fn - fe) * vclose * dt
+                work += -fn * r_rate * dt
+                if LINEAR:
+                    elastic += linear_elastic_energy(ov, cout)
+                else:
+                    elastic += hertz_elastic_energy(ov, cout)
+        else:
+            fcon[k, 1] = 0.0
+            fcon[k, 3] = 0.0
+            if SPRING:
+                xi[k, 1] = 0.0
+                xi[k, 3] = 0.0
+
+    if CAGE:
+        cbc = p[P_COEF + 2]
+        cwall = p[P_COEF + 3]
+        reach = rb + rc
+        for j in range(z):
+            c = z + j
+            cx = pos[c, 0]
+            cy = pos[c, 1]
+            # cage ball / its two frictionless boundaries at r_p -+ r_c (table 2 "cage/cage")
+            r = math.sqrt(cx * cx + cy * cy)
+            nx = cx / r
+            ny = cy / r
+            ov = r - rp  # > 0: on the outer boundary (pushed in); < 0: on the inner one
+            if ov != 0.0:
+                sgn = 1.0 if ov > 0.0 else -1.0
+                aov = abs(ov)
+                if aov > maxfrac * rc:
+                    status[0] = OVERLAP
+                    status[1] = step
+                    status[2] = c
+                    status[3] = 3
+                vclose = sgn * (vel[c, 0] * nx + vel[c, 1] * ny)
+                fe, fn = normal_law(aov, vclose, cwall, p[P_MRED + 3])
+                acc[c, 0] -= sgn * fn * nx
+                acc[c, 1] -= sgn * fn * ny
+                if ENERGY:
+                    loss += (fn - fe) * vclose * dt
+                    if LINEAR:
+                        elastic += linear_elastic_energy(aov, cwall)
+                    else:
+                        elastic += hertz_elastic_energy(aov, cwall)
+            # cage ball j against ball j (slot 4) and ball j + 1 (slot 5): frictionless
+            for side in range(2):
+                k = j if side == 0 else (j + 1) % z
+                dx = cx - pos[k, 0]
+                dy = cy - pos[k, 1]
+                d2 = dx * dx + dy * dy
+                if d2 < reach * reach:
+                    d = math.sqrt(d2)
+                    nx = dx / d
+                    ny = dy / d
+                    ov = reach - d
+                    if ov > maxfrac * rc:
+                        status[0] = OVERLAP
+                        status[1] = step
+                        status[2] = c
+                        status[3] = 2
+                    vclose = -((vel[c, 0] - vel[k, 0]) * nx + (vel[c, 1] - vel[k, 1]) * ny)
+                    fe, fn = normal_law(ov, vclose, cbc, p[P_MRED + 2])
+                    acc[c, 0] += fn * nx
+                    acc[c, 1] += fn * ny
+                    acc[k, 0] -= fn * nx
+                    acc[k, 1] -= fn * ny
+                    fcon[j, 4 + side] = fn
+                    if ENERGY:
+                        loss += (fn - fe) * vclose * dt
+                        if LINEAR:
+                            elastic += linear_elastic_energy(ov, cbc)
+                        else:
+                            elastic += hertz_elastic_energy(ov, cbc)
+                else:
+                    fcon[j, 4 + side] = 0.0
+    else:
+        cbb = p[P_COEF + 4]
+        reach = 2.0 * rb
+        for k in range(z):
+            m = (k + 1) % z
+            dx = pos[m, 0] - pos[k, 0]
+            dy = pos[m, 1] - pos[k, 1]
+            d2 = dx * dx + dy * dy
+            if d2 < reach * reach:
+                d = math.sqrt(d2)
+                nx = dx / d
+                ny = dy / d
+                ov = reach - d
+                if ov > maxfrac * rb:
+                    status[0] = OVERLAP
+                    status[1] = step
+                    status[2] = k
+                    status[3] = 4
+                vclose = -((vel[m, 0] - vel[k, 0]) * nx + (vel[m, 1] - vel[k, 1]) * ny)
+                fe, fn = normal_law(ov, vclose, cbb, p[P_MRED + 4])
+                acc[m, 0] += fn * nx
+                acc[m, 1] += fn * ny
+                acc[k, 0] -= fn * nx
+                acc[k, 1] -= fn * ny
+                fcon[k, 4] = fn
+                if ENERGY:
+                    loss += (fn - fe) * vclose * dt
+                    if LINEAR:
+                        elastic += linear_elastic_energy(ov, cbb)
+                    else:
+                        elastic += hertz_elastic_energy(ov, cbb)
+            else:
+                fcon[k, 4] = 0.0
+            fcon[k, 5] = 0.0
+
+    # forces -> accelerations
+    inv_mb = 1.0 / mb
+    inv_mc = 1.0 / mc
+    for k in range(z):
+        acc[k, 0] *= inv_mb
+        acc[k, 1] *= inv_mb
+        spin_acc[k] /= ib
+        acc[z + k, 0] *= inv_mc
+        acc[z + k, 1] *= inv_mc
+    acc[ring, 0] /= mi
+    acc[ring, 1] /= mi
+    sched[3] = drive_torque
+    if ENERGY:
+        energy[0] += work + drive_torque * omega * dt
+        energy[1] += loss
+        energy[2] = elastic
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def kinetic_energy(p, vel, spin):
+    z = spin.shape[0]
+    e = 0.5 * p[P_MI] * (vel[2 * z, 0] ** 2 + vel[2 * z, 1] ** 2)
+    for k in range(z):
+        e += 0.5 * p[P_MB] * (vel[k, 0] ** 2 + vel[k, 1] ** 2) + 0.5 * p[P_IB] * spin[k] ** 2
+        e += 0.5 * p[P_MC] * (vel[z + k, 0] ** 2 + vel[z + k, 1] ** 2)
+    return e
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def run(
+    p,
+    pos,
+    vel,
+    acc,
+    spin,
+    spin_acc,
+    xi,
+    fcon,
+    sched,
+    energy,
+    work2,
+    step0,
+    n_steps,
+    record_every,
+    rec_index0,
+    rec_time,
+    rec_pos,
+    rec_vel,
+    rec_spin,
+    rec_fcon,
+    rec_sched,
+    rec_energy,
+    status,
+):
+    """Advance ``n_steps`` from step ``step0``; record every ``record_every`` steps.
+
+    ``work2`` is scratch of shape (N + Z, 2) (new accelerations and spin accelerations). Returns
+    the next free record index. Stops at once when ``status[0]`` becomes non-zero.
+    """
+    z = spin.shape[0]
+    nb = 2 * z + 1
+    dt = p[P_DT]
+    half_dt2 = 0.5 * dt * dt
+    rec = rec_index0
+    acc_new = work2[:nb]
+    for s in range(n_steps):
+        step = step0 + s
+        t_new = (step + 1) * dt
+        if VERLET:
+            for i in range(nb):
+                pos[i, 0] += vel[i, 0] * dt + acc[i, 0] * half_dt2
+                pos[i, 1] += vel[i, 1] * dt + acc[i, 1] * half_dt2
+            # predicted velocities for the dissipative forces, stored in place
+            for i in range(nb):
+                vel[i, 0] += acc[i, 0] * dt
+                vel[i, 1] += acc[i, 1] * dt
+            for k in range(z):
+                spin[k] += spin_acc[k] * dt
+            for k in range(z):
+                work2[nb + k, 0] = spin_acc[k]
+            forces(
+                t_new, p, pos, vel, spin, acc_new, spin_acc, xi, fcon, sched, energy, status, step
+            )
+            # v_{n+1} = v_pred + (a_new - a_old) dt / 2
+            for i in range(nb):
+                vel[i, 0] += 0.5 * (acc_new[i, 0] - acc[i, 0]) * dt
+                vel[i, 1] += 0.5 * (acc_new[i, 1] - acc[i, 1]) * dt
+                acc[i, 0] = acc_new[i, 0]
+                acc[i, 1] = acc_new[i, 1]
+            for k in range(z):
+                spin[k] += 0.5 * (spin_acc[k] - work2[nb + k, 0]) * dt
+        else:
+            # symplectic Euler: forces at (x_n, v_n), then v_{n+1}, then x_{n+1}
+            forces(
+                step * dt, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status, step
+            )
+            for i in range(nb):
+                vel[i, 0] += acc[i, 0] * dt
+                vel[i, 1] += acc[i, 1] * dt
+                pos[i, 0] += vel[i, 0] * dt
+                pos[i, 1] += vel[i, 1] * dt
+            for k in range(z):
+                spin[k] += spin_acc[k] * dt
+        if status[0] != OK:
+            return rec
+        if (step + 1) % record_every == 0:
+            for i in range(nb):
+                v = pos[i, 0] + pos[i, 1] + vel[i, 0] + vel[i, 1]
+                if not math.isfinite(v):
+                    status[0] = NONFINITE
+                    status[1] = step
+                    status[2] = i
+                    status[3] = -1
+                    return rec
+            if rec < rec_time.shape[0]:
+                rec_time[rec] = t_new
+                for i in range(nb):
+                    rec_pos[rec, i, 0] = pos[i, 0]
+                    rec_pos[rec, i, 1] = pos[i, 1]
+                    rec_vel[rec, i, 0] = vel[i, 0]
+                    rec_vel[rec, i, 1] = vel[i, 1]
+                for k in range(z):
+                    rec_spin[rec, k] = spin[k]
+                    for q in range(6):
+                        rec_fcon[rec, k, q] = fcon[k, q]
+                for q in range(4):
+                    rec_sched[rec, q] = sched[q]
+                if ENERGY:
+                    rec_energy[rec, 0] = energy[0]
+                    rec_energy[rec, 1] = energy[1]
+                    rec_energy[rec, 2] = energy[2]
+                    rec_energy[rec, 3] = kinetic_energy(p, vel, spin)
+                rec += 1
+    return rec
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def start(p, pos, vel, acc, spin, spin_acc, xi, fcon, sched, energy, status):
+    """Initial accelerations at t = 0 (needed by velocity Verlet)."""
+    forces(0.0, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status, 0)
+    energy[0] = 0.0
+    energy[1] = 0.0
+
+
+_unused = np  # numpy is imported for numba's typing of the shared contact functions

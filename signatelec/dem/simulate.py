@@ -1,0 +1,346 @@
+"""Run a scene through the DEM kernel and return pandas tables.
+
+Procedure of the seed (2.2.1-2.2.2, 4): the balls start on the pitch circle, touching both rings
+(zero-clearance geometry of table 1); phase 1 moves the outer race radius to R_out + clearance
+(eq. 14); phase 2 applies F_r on the inner ring along -y; phase 3 spins the inner ring up along a
+sinusoid to omega; then steady running until ``duration_s``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from signatelec.bearing import STANDARD_GRAVITY_M_S2, contact_properties
+from signatelec.contact import mindlin_coefficient, tangential_stiffness_from_overlap
+from signatelec.dem import kernel_template as K
+from signatelec.dem.kernels import KernelFlags, get_kernel
+from signatelec.dem.stability import StabilityLimit, scene_law, stability_limit
+from signatelec.scene import Scene, SceneError
+
+
+class DivergenceError(RuntimeError):
+    """A run left the physical range; the message names the step, body and quantity."""
+
+
+PHASES = ("clearance", "load", "spin_up", "steady")
+_CONTACT_NAMES = {
+    0: "inner-raceway overlap",
+    1: "outer-raceway overlap",
+    2: "ball/cage overlap",
+    3: "cage-boundary overlap",
+    4: "ball/ball overlap",
+    -1: "position or velocity (not finite)",
+}
+
+
+def phase_times(scene: Scene) -> tuple[float, float, float]:
+    """Ends of the clearance, load and spin-up phases, s (a phase that is off has length 0)."""
+    pr, e = scene.procedure, scene.effects
+    t1 = pr.clearance_time_s if e.clearance_phase else 0.0
+    t2 = t1 + (pr.load_time_s if pr.load_ramp == "smooth" else 0.0)
+    t3 = t2 + (pr.spin_up_time_s if e.spin_up else 0.0)
+    if pr.load_ramp == "step":
+        # the load still waits for its phase, then comes at once
+        t2 = t1
+    return t1, t2, t3
+
+
+def kernel_parameters(scene: Scene) -> np.ndarray:
+    b, op = scene.bearing, scene.operating
+    coef, exponent = scene_law(scene)
+    props = contact_properties(b)
+    p = np.zeros(K.N_PARAMS)
+    p[K.P_DT] = scene.numerics.dt_s
+    p[K.P_RB] = b.ball_radius_m
+    p[K.P_RC] = b.cage_ball_radius_m
+    p[K.P_RIN] = b.inner_race_radius_m
+    p[K.P_ROUT0] = b.outer_race_radius_m
+    p[K.P_CLEAR] = op.clearance_m
+    p[K.P_RP] = b.pitch_radius_m
+    p[K.P_MB] = b.ball_mass_kg
+    p[K.P_IB] = b.ball_inertia_kg_m2
+    p[K.P_MC] = b.cage_ball_mass_kg
+    p[K.P_MI] = b.inner_ring_mass_kg
+    p[K.P_FR] = op.radial_load_n
+    p[K.P_OMEGA] = op.omega_rad_s
+    p[K.P_T1], p[K.P_T2], p[K.P_T3] = phase_times(scene)
+    p[K.P_G] = STANDARD_GRAVITY_M_S2
+    p[K.P_MU] = b.friction_coefficient
+    p[K.P_MAXFRAC] = 0.1
+    p[K.P_COEF : K.P_COEF + 5] = coef
+    p[K.P_MRED : K.P_MRED + 5] = [c.reduced_mass_kg for c in props]
+    for side in (0, 1):
+        c = props[side]
+        if exponent == 1.0:
+            p[K.P_KT + side] = 2.0 / 3.0 * coef[side]  # eq. 5: K_t / K_n in [2/3, 1]
+        else:
+            mc = mindlin_coefficient(c.radius_eq_m, c.shear_modulus_pa, c.poisson)
+            p[K.P_KT + side] = tangential_stiffness_from_overlap(1.0, coef[side], mc)
+    return p
+
+
+@dataclass
+class KernelState:
+    pos: np.ndarray
+    vel: np.ndarray
+    acc: np.ndarray
+    spin: np.ndarray
+    spin_acc: np.ndarray
+    xi: np.ndarray
+    fcon: np.ndarray
+    sched: np.ndarray
+    energy: np.ndarray
+    work2: np.ndarray
+    status: np.ndarray
+
+    @classmethod
+    def initial(cls, scene: Scene) -> KernelState:
+        b = scene.bearing
+        z = b.n_balls
+        psi = scene.operating.initial_ball_angle_rad + 2.0 * math.pi * np.arange(z) / z
+        psi_c = psi + math.pi / z
+        pos = np.zeros((2 * z + 1, 2))
+        rp = b.pitch_radius_m
+        pos[:z, 0], pos[:z, 1] = rp * np.sin(psi), -rp * np.cos(psi)
+        pos[z : 2 * z, 0], pos[z : 2 * z, 1] = rp * np.sin(psi_c), -rp * np.cos(psi_c)
+        return cls(
+            pos=pos,
+            vel=np.zeros_like(pos),
+            acc=np.zeros_like(pos),
+            spin=np.zeros(z),
+            spin_acc=np.zeros(z),
+            xi=np.zeros((z, 4)),
+            fcon=np.zeros((z, 6)),
+            sched=np.zeros(4),
+            energy=np.zeros(4),
+            work2=np.zeros((3 * z + 1, 2)),
+            status=np.zeros(4, np.int64),
+        )
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of :func:`simulate`: the scene, tables of balls and signals, timings."""
+
+    scene: Scene
+    balls: pd.DataFrame
+    signals: pd.DataFrame
+    timings: dict = field(default_factory=dict)
+    stability: StabilityLimit | None = None
+
+    def steady(self, table: str = "signals") -> pd.DataFrame:
+        """Rows of the steady-running phase."""
+        df = getattr(self, table)
+        return df[df["time_s"] > self.scene.setup_time_s + 1e-12]
+
+    def write(self, out_dir) -> None:
+        from signatelec.io import write_result
+
+        write_result(self, out_dir)
+
+
+def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFrame]:
+    z = scene.bearing.n_balls
+    t, pos, vel, spin, fcon, sched, energy = (a[:n_rec] for a in rec)
+    ring = 2 * z
+    bx, by = pos[:, :z, 0], pos[:, :z, 1]
+    r2 = bx * bx + by * by
+    orbit = (bx * vel[:, :z, 1] - by * vel[:, :z, 0]) / r2
+    balls = pd.DataFrame(
+        {
+            "time_s": np.repeat(t, z),
+            "ball": np.tile(np.arange(z, dtype=np.int32), n_rec),
+            "angle_rad": np.arctan2(bx, -by).ravel(),
+            "x_m": bx.ravel(),
+            "y_m": by.ravel(),
+            "orbit_speed_rad_s": orbit.ravel(),
+            "spin_rad_s": spin.ravel(),
+            "inner_force_n": fcon[:, :, 0].ravel(),
+            "outer_force_n": fcon[:, :, 1].ravel(),
+            "inner_tangential_n": fcon[:, :, 2].ravel(),
+            "outer_tangential_n": fcon[:, :, 3].ravel(),
+        }
+    )
+    ix, iy = pos[:, ring, 0], pos[:, ring, 1]
+    delta_r = np.hypot(ix, iy)
+    clearance = scene.operating.clearance_m
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eps = np.where(delta_r > 0, 0.5 * (1.0 - clearance / delta_r), np.nan)
+    t1, t2, t3 = phase_times(scene)
+    phase = np.select([t <= t1, t <= t2, t <= t3], [0, 1, 2], 3)
+    signals = pd.DataFrame(
+        {
+            "time_s": t,
+            "phase": pd.Categorical.from_codes(phase, PHASES),
+            "inner_x_m": ix,
+            "inner_y_m": iy,
+            "delta_r_m": delta_r,
+            "epsilon": eps,
+            "outer_race_radius_m": sched[:, 0],
+            "applied_load_n": sched[:, 1],
+            "inner_omega_rad_s": sched[:, 2],
+            "drive_torque_n_m": sched[:, 3],
+            "cage_speed_rad_s": orbit.mean(axis=1),
+            "loaded_balls": (fcon[:, :, 0] > 0.0).sum(axis=1).astype(np.int32),
+            "max_ball_load_n": fcon[:, :, 0].max(axis=1),
+        }
+    )
+    if scene.effects.energy:
+        signals["work_in_j"] = energy[:, 0]
+        signals["dissipated_j"] = energy[:, 1]
+        signals["elastic_j"] = energy[:, 2]
+        signals["kinetic_j"] = energy[:, 3]
+    return balls, signals
+
+
+def _divergence_message(scene: Scene, status: np.ndarray) -> str:
+    z = scene.bearing.n_balls
+    step, body, what = int(status[1]), int(status[2]), int(status[3])
+    if body < z:
+        name = f"ball {body}"
+    elif body < 2 * z:
+        name = f"cage ball {body - z}"
+    else:
+        name = "inner ring"
+    limit = "" if what == -1 else " beyond 10 % of the body radius"
+    return (
+        f"simulation diverged at step {step} (t = {(step + 1) * scene.numerics.dt_s:.6g} s): "
+        f"{name}, {_CONTACT_NAMES[what]}{limit}; reduce numerics.dt_s or check the scene"
+    )
+
+
+def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray) -> None:
+    """Seed section 3 at every recorded instant: resistance, ball currents and potentials."""
+    from signatelec.electrical import bearing_electrics
+
+    scene = result.scene
+    z = scene.bearing.n_balls
+    el = bearing_electrics(
+        fcon[:, :, 0],
+        fcon[:, :, 1],
+        scene.bearing,
+        scene.operating.injected_current_a,
+        ball_xy_m=pos[:, :z],
+        inner_ring_xy_m=pos[:, 2 * z],
+        ball_ball_force_n=None if scene.effects.cage else fcon[:, :, 4],
+    )
+    result.signals["resistance_ohm"] = el.resistance_ohm
+    result.signals["max_current_density_a_m2"] = el.max_current_density_a_m2
+    for name in ("current_a", "potential_v", "inner_area_m2", "outer_area_m2"):
+        result.balls[name] = getattr(el, name).ravel()
+
+
+def simulate(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
+    """Simulate ``scene`` (default: the seed's scene) with the DEM kernel.
+
+    Raises :class:`SceneError` when dt is above the stability limit (before running) and
+    :class:`DivergenceError` when the run leaves the physical range.
+    """
+    scene = scene or Scene()
+    limit = stability_limit(scene)
+    if scene.numerics.dt_s > limit.dt_limit_s:
+        raise SceneError(
+            f"numerics.dt_s = {scene.numerics.dt_s:g}: above the {limit.describe()}; "
+            f"use dt_s <= {limit.dt_limit_s:.3g} s"
+        )
+    flags = KernelFlags.from_scene(scene)
+    kern = get_kernel(flags)
+    p = kernel_parameters(scene)
+    st = KernelState.initial(scene)
+    n_steps, every = scene.n_steps, scene.record_every
+    n_rec = n_steps // every
+    z = scene.bearing.n_balls
+    nb = 2 * z + 1
+    rec = (
+        np.zeros(n_rec),
+        np.zeros((n_rec, nb, 2)),
+        np.zeros((n_rec, nb, 2)),
+        np.zeros((n_rec, z)),
+        np.zeros((n_rec, z, 6)),
+        np.zeros((n_rec, 4)),
+        np.zeros((n_rec, 4)),
+    )
+
+    def call(step0: int, count: int, rec_index: int) -> int:
+        return kern.run(
+            p,
+            st.pos,
+            st.vel,
+            st.acc,
+            st.spin,
+            st.spin_acc,
+            st.xi,
+            st.fcon,
+            st.sched,
+            st.energy,
+            st.work2,
+            step0,
+            count,
+            every,
+            rec_index,
+            *rec,
+            st.status,
+        )
+
+    t0 = time.perf_counter()
+    kern.start(
+        p,
+        st.pos,
+        st.vel,
+        st.acc,
+        st.spin,
+        st.spin_acc,
+        st.xi,
+        st.fcon,
+        st.sched,
+        st.energy,
+        st.status,
+    )
+    call(0, 0, 0)  # compiles (or loads from the on-disk cache) without advancing
+    compile_s = time.perf_counter() - t0
+
+    chunk = max(every, (n_steps // 200) // every * every)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=n_steps, unit="step", unit_scale=True, desc="simulate", leave=False)
+    t0 = time.perf_counter()
+    step = 0
+    rec_index = 0
+    while step < n_steps:
+        count = min(chunk, n_steps - step)
+        rec_index = call(step, count, rec_index)
+        step += count
+        if bar is not None:
+            bar.update(count)
+        if st.status[0] != K.OK:
+            break
+    run_s = time.perf_counter() - t0
+    if bar is not None:
+        bar.close()
+    if st.status[0] != K.OK:
+        raise DivergenceError(_divergence_message(scene, st.status))
+
+    balls, signals = _raw_tables(scene, rec_index, rec)
+    timings = {
+        "compile_s": compile_s,
+        "run_s": run_s,
+        "n_steps": n_steps,
+        "us_per_step": 1e6 * run_s / max(n_steps, 1),
+        "kernel": flags.key,
+    }
+    result = SimulationResult(scene, balls, signals, timings, limit)
+    if scene.effects.electrical:
+        t0 = time.perf_counter()
+        _add_electrical(result, rec[4][:rec_index], rec[1][:rec_index])
+        result.timings["electrical_s"] = time.perf_counter() - t0
+        result.timings["electrical_us_per_instant"] = (
+            1e6 * result.timings["electrical_s"] / max(rec_index, 1)
+        )
+    return result

@@ -1,0 +1,78 @@
+"""Files: Parquet tables with the scene in the schema metadata, written atomically.
+
+Every output is written under a temporary name in the destination's parent and renamed when
+complete, so a crash or an error never leaves a half-written file or directory behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from signatelec import __version__
+
+METADATA_KEY = b"signatelec"
+
+
+class OutputError(OSError):
+    """The output location cannot be written; the message names it."""
+
+
+def table_with_metadata(df: pd.DataFrame, metadata: dict) -> pa.Table:
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    meta[METADATA_KEY] = json.dumps({"version": __version__, **metadata}).encode()
+    return table.replace_schema_metadata(meta)
+
+
+def read_metadata(path: str | Path) -> dict:
+    """The signatelec metadata (scene, version, ...) stored in a Parquet file's schema."""
+    meta = pq.read_schema(path).metadata or {}
+    return json.loads(meta.get(METADATA_KEY, b"{}"))
+
+
+@contextmanager
+def atomic_directory(out_dir: str | Path) -> Iterator[Path]:
+    """Yield a temporary directory that replaces ``out_dir`` only if the block succeeds.
+
+    Files already in an existing ``out_dir`` but not rewritten are kept.
+    """
+    out = Path(out_dir)
+    parent = out.parent if str(out.parent) else Path(".")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
+    except OSError as exc:
+        raise OutputError(
+            f"--out {str(out)!r}: cannot write there ({exc.strerror}); choose a writable directory"
+        ) from None
+    try:
+        yield tmp
+        if out.is_dir():
+            for item in tmp.iterdir():
+                os.replace(item, out / item.name)
+            tmp.rmdir()
+        else:
+            os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def write_result(result, out_dir: str | Path) -> None:
+    """Write ``balls.parquet`` and ``signals.parquet`` of a simulation result."""
+    meta = {"scene": result.scene.to_dict(), "timings": result.timings}
+    with atomic_directory(out_dir) as tmp:
+        for name in ("balls", "signals"):
+            pq.write_table(
+                table_with_metadata(getattr(result, name), meta), tmp / f"{name}.parquet"
+            )

@@ -1,0 +1,334 @@
+"""A scene: a bearing, an operating point, the procedure of the seed, the effects, the numerics.
+
+Scenes are frozen dataclasses read from TOML and validated as a whole: any non-physical or unknown
+value raises :class:`SceneError` with one line naming the key, the value and what is allowed.
+
+TOML layout (every section and key optional; defaults are the seed's scene, section 4)::
+
+    [bearing]      # fields of signatelec.bearing.Bearing (radii, n_balls, materials, ...)
+    [operating]    radial_load_n, clearance_m, omega_rad_s, initial_ball_angle_rad,
+                   injected_current_a
+    [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp
+    [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal,
+                   clearance_phase, spin_up, electrical, energy
+    [numerics]     dt_s, duration_s, sample_rate_hz, integrator, fidelity, linear_stiffness_n_m
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from signatelec.bearing import Bearing, BearingError
+from signatelec.contact import CONTACT_LAWS
+
+
+class SceneError(ValueError):
+    """A scene value that is not allowed; the message is one line naming key, value, rule."""
+
+
+INTEGRATORS = ("verlet", "euler")
+TANGENTIAL_MODELS = ("seed", "spring")
+LOAD_RAMPS = ("smooth", "step")
+FIDELITIES = ("dem",)
+
+
+@dataclass(frozen=True)
+class Operating:
+    """Operating point (seed section 2.2.2 and 4)."""
+
+    #: Radial load F_r on the inner ring along -y, N (seed: 5820 N = 0.2 C_r).
+    radial_load_n: float = 5820.0
+    #: Radial clearance Delta_r = R_out^f - R_out (eq. 14): > 0 clearance, < 0 preload, m.
+    clearance_m: float = 0.0
+    #: Inner-ring speed omega after the spin-up, rad/s (seed: 500 rad/s).
+    omega_rad_s: float = 500.0
+    #: Angle of ball 0 from the load direction at t = 0, rad.
+    initial_ball_angle_rad: float = 0.0
+    #: Current injected into the outer ring for the electrical model, A.
+    injected_current_a: float = 0.1
+
+
+@dataclass(frozen=True)
+class Procedure:
+    """Durations of the seed's set-up phases (2.2.1, 2.2.2): clearance, load, spin-up."""
+
+    clearance_time_s: float = 0.5e-3
+    load_time_s: float = 1.5e-3
+    spin_up_time_s: float = 5.0e-3
+    #: "smooth": F_r rises along (1 - cos)/2 over load_time_s; "step": F_r applied at once.
+    load_ramp: str = "smooth"
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Which physics a scene simulates. An effect that is off is not compiled into the kernel.
+
+    - ``cage``: the 13 polyamide cage balls between two frictionless boundaries (off: balls may
+      touch each other, steel on steel, frictionless).
+    - ``friction``: Coulomb friction (eq. 4) and tangential forces on ball/raceway contacts.
+    - ``damping``: critical viscous damping (eq. 5) on every contact.
+    - ``contact_law``: "hertz" (eqs 6-9), "harris" (eqs 10-11) or "linear" (eq. 3).
+    - ``tangential``: "seed" (delta_t = v_t dt, eq. 3) or "spring" (accumulated delta_t).
+    - ``gravity``: weight of balls, cage balls and inner ring along -y.
+    - ``centrifugal``: the inertial-frame DEM carries it by itself; off adds the centripetal force
+      m v_t^2 / r to each ball so results compare with centrifugal-free theory.
+    - ``clearance_phase``: move the outer race to R_out + clearance gradually (eq. 14); off: at
+      once.
+    - ``spin_up``: sinusoidal spin-up of the inner ring; off: omega applied as a step.
+    - ``electrical``: contact ellipses, eq. 16 and the Kirchhoff network, per recorded instant.
+    - ``energy``: accumulate an energy balance (work in, dissipation, kinetic, elastic).
+    """
+
+    cage: bool = True
+    friction: bool = True
+    damping: bool = True
+    contact_law: str = "hertz"
+    tangential: str = "seed"
+    gravity: bool = True
+    centrifugal: bool = True
+    clearance_phase: bool = True
+    spin_up: bool = True
+    electrical: bool = True
+    energy: bool = False
+
+
+@dataclass(frozen=True)
+class Numerics:
+    dt_s: float = 1e-7
+    duration_s: float = 0.03
+    sample_rate_hz: float = 20000.0
+    integrator: str = "verlet"
+    fidelity: str = "dem"
+    #: Linear-law stiffness of the ball/outer-raceway contact, N/m; 0 means the Hertz secant
+    #: stiffness at the Stribeck load 4.37 F_r / Z (see contact.law_coefficients).
+    linear_stiffness_n_m: float = 0.0
+
+
+_CHOICES = {
+    ("effects", "contact_law"): CONTACT_LAWS,
+    ("effects", "tangential"): TANGENTIAL_MODELS,
+    ("procedure", "load_ramp"): LOAD_RAMPS,
+    ("numerics", "integrator"): INTEGRATORS,
+    ("numerics", "fidelity"): FIDELITIES,
+}
+
+
+@dataclass(frozen=True)
+class Scene:
+    bearing: Bearing = field(default_factory=Bearing)
+    operating: Operating = field(default_factory=Operating)
+    procedure: Procedure = field(default_factory=Procedure)
+    effects: Effects = field(default_factory=Effects)
+    numerics: Numerics = field(default_factory=Numerics)
+
+    def __post_init__(self) -> None:
+        validate_scene(self)
+
+    # --- derived ------------------------------------------------------------------------
+    @property
+    def setup_time_s(self) -> float:
+        """End of the set-up (clearance, load and spin-up phases)."""
+        p = self.procedure
+        return p.clearance_time_s + p.load_time_s + p.spin_up_time_s
+
+    @property
+    def n_steps(self) -> int:
+        return int(round(self.numerics.duration_s / self.numerics.dt_s))
+
+    @property
+    def record_every(self) -> int:
+        """Steps between two recorded samples."""
+        return max(1, int(round(1.0 / (self.numerics.sample_rate_hz * self.numerics.dt_s))))
+
+    # --- (de)serialisation ----------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "bearing": self.bearing.to_dict(),
+            "operating": asdict(self.operating),
+            "procedure": asdict(self.procedure),
+            "effects": asdict(self.effects),
+            "numerics": asdict(self.numerics),
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Scene:
+        sections = {
+            "operating": Operating,
+            "procedure": Procedure,
+            "effects": Effects,
+            "numerics": Numerics,
+        }
+        if not isinstance(data, dict):
+            raise SceneError(f"scene = {data!r}: must be a table of sections")
+        kwargs: dict[str, Any] = {}
+        for name, value in data.items():
+            if name == "bearing":
+                if not isinstance(value, dict):
+                    raise SceneError(f"bearing = {value!r}: must be a table")
+                try:
+                    kwargs["bearing"] = Bearing.from_dict(value)
+                except BearingError as exc:
+                    raise SceneError(str(exc)) from None
+                except TypeError as exc:
+                    raise SceneError(f"bearing: {exc}") from None
+            elif name in sections:
+                kwargs[name] = _section(name, sections[name], value)
+            else:
+                allowed = ", ".join(["bearing", *sections])
+                raise SceneError(f"{name} = {_short(value)}: unknown section; allowed: {allowed}")
+        return cls(**kwargs)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Scene:
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise SceneError(f"scene file {str(path)!r}: cannot be read ({exc.strerror})") from None
+        except UnicodeDecodeError:
+            raise SceneError(f"scene file {str(path)!r}: is not UTF-8 text") from None
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(f"scene file {str(path)!r}: not valid TOML ({exc})") from None
+        return cls.from_dict(data)
+
+    def with_overrides(self, **changes: Any) -> Scene:
+        """Copy with flat overrides such as ``radial_load_n=...`` or ``dt_s=...`` (None skipped)."""
+        parts = {"operating": {}, "procedure": {}, "effects": {}, "numerics": {}}
+        for key, value in changes.items():
+            if value is None:
+                continue
+            for section in parts:
+                if key in {f.name for f in fields(getattr(self, section))}:
+                    parts[section][key] = value
+                    break
+            else:
+                raise SceneError(f"{key} = {value!r}: not a scene parameter")
+        updated = {s: replace(getattr(self, s), **v) for s, v in parts.items() if v}
+        return replace(self, **updated)
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) < 60 else text[:57] + "..."
+
+
+def _section(name: str, cls: type, data: Any) -> Any:
+    if not isinstance(data, dict):
+        raise SceneError(f"{name} = {_short(data)}: must be a table")
+    known = {f.name: f for f in fields(cls)}
+    for key, value in data.items():
+        if key not in known:
+            raise SceneError(
+                f"{name}.{key} = {_short(value)}: unknown key; allowed: {', '.join(known)}"
+            )
+        default = known[key].default
+        where = f"{name}.{key} = {_short(value)}"
+        if isinstance(default, bool):
+            if not isinstance(value, bool):
+                raise SceneError(f"{where}: must be true or false")
+        elif isinstance(default, float):
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise SceneError(f"{where}: must be a number")
+        elif isinstance(default, str) and not isinstance(value, str):
+            raise SceneError(f"{where}: must be one of {', '.join(_CHOICES[(name, key)])}")
+    converted = {k: float(v) if isinstance(known[k].default, float) else v for k, v in data.items()}
+    return cls(**converted)
+
+
+def _check(ok: bool, key: str, value: Any, allowed: str) -> None:
+    if not ok:
+        raise SceneError(f"{key} = {_short(value)}: {allowed}")
+
+
+def _finite(key: str, value: Any) -> None:
+    _check(
+        isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value),
+        key,
+        value,
+        "must be a finite number",
+    )
+
+
+def validate_scene(scene: Scene) -> None:
+    """Raise :class:`SceneError` on the first value that is not allowed."""
+    for section in ("operating", "procedure", "effects", "numerics"):
+        obj = getattr(scene, section)
+        for f in fields(obj):
+            value = getattr(obj, f.name)
+            key = f"{section}.{f.name}"
+            if (section, f.name) in _CHOICES:
+                choices = _CHOICES[(section, f.name)]
+                _check(value in choices, key, value, f"must be one of {', '.join(choices)}")
+            elif isinstance(f.default, bool):
+                _check(isinstance(value, bool), key, value, "must be true or false")
+            elif isinstance(f.default, float):
+                _finite(key, value)
+    op, pr, nu = scene.operating, scene.procedure, scene.numerics
+    _check(op.radial_load_n >= 0.0, "operating.radial_load_n", op.radial_load_n, "must be >= 0 N")
+    _check(op.omega_rad_s >= 0.0, "operating.omega_rad_s", op.omega_rad_s, "must be >= 0 rad/s")
+    _check(
+        op.injected_current_a > 0.0,
+        "operating.injected_current_a",
+        op.injected_current_a,
+        "must be > 0 A",
+    )
+    rb = scene.bearing.ball_radius_m
+    _check(
+        abs(op.clearance_m) <= 0.05 * rb,
+        "operating.clearance_m",
+        op.clearance_m,
+        f"must be within +-{0.05 * rb:.3g} m (5 % of the ball radius)",
+    )
+    if op.clearance_m < 0.0:
+        from signatelec.dem.stability import preload_limit_m
+
+        limit = preload_limit_m(scene.bearing)
+        _check(
+            op.clearance_m >= -limit,
+            "operating.clearance_m",
+            op.clearance_m,
+            f"a preload beyond {-limit:.3g} m loads the balls past the 4.2 GPa static contact "
+            "pressure limit (ISO 76)",
+        )
+    for key in ("clearance_time_s", "load_time_s", "spin_up_time_s"):
+        v = getattr(pr, key)
+        _check(v >= 0.0, f"procedure.{key}", v, "must be >= 0 s")
+    _check(nu.dt_s > 0.0, "numerics.dt_s", nu.dt_s, "must be > 0 s")
+    _check(nu.dt_s <= 1e-4, "numerics.dt_s", nu.dt_s, "must be <= 1e-4 s")
+    _check(
+        nu.duration_s > scene.setup_time_s,
+        "numerics.duration_s",
+        nu.duration_s,
+        f"must exceed the set-up phases (clearance + load + spin-up = {scene.setup_time_s:g} s)",
+    )
+    _check(
+        nu.duration_s <= 100.0,
+        "numerics.duration_s",
+        nu.duration_s,
+        "must be <= 100 s",
+    )
+    _check(
+        0.0 < nu.sample_rate_hz <= 1.0 / nu.dt_s,
+        "numerics.sample_rate_hz",
+        nu.sample_rate_hz,
+        f"must be in (0, 1/dt_s = {1.0 / nu.dt_s:g}] Hz",
+    )
+    _check(
+        nu.linear_stiffness_n_m >= 0.0,
+        "numerics.linear_stiffness_n_m",
+        nu.linear_stiffness_n_m,
+        "must be >= 0 N/m (0: Hertz secant stiffness)",
+    )
+
+
+DEFAULT_SCENE = Scene()

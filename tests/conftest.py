@@ -1,0 +1,44 @@
+"""Shared fixtures. Simulations are cached per session: several tests read one run."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from functools import cache
+
+import pytest
+
+from signatelec.scene import Effects, Numerics, Operating, Procedure, Scene
+
+CR_N = 29100.0  # NSK dynamic load rating of the 6208 (seed 2.2.2)
+
+
+def make_scene(
+    radial_load_n: float = 5820.0,
+    clearance_m: float = 0.0,
+    omega_rad_s: float = 500.0,
+    duration_s: float = 0.012,
+    effects: dict | None = None,
+    numerics: dict | None = None,
+    procedure: dict | None = None,
+) -> Scene:
+    return Scene(
+        operating=Operating(
+            radial_load_n=radial_load_n, clearance_m=clearance_m, omega_rad_s=omega_rad_s
+        ),
+        procedure=replace(Procedure(), **(procedure or {})),
+        effects=replace(Effects(), **(effects or {})),
+        numerics=replace(Numerics(duration_s=duration_s), **(numerics or {})),
+    )
+
+
+@cache
+def _run(scene: Scene):
+    from signatelec.dem.simulate import simulate
+
+    return simulate(scene)
+
+
+@pytest.fixture(scope="session")
+def run_scene():
+    """Simulate a scene once per test session (scenes are frozen, hence hashable)."""
+    return _run
