@@ -66,6 +66,7 @@ def run_bench(duration_s: float = 0.03, fresh_cache: bool = True) -> dict:
                 "run_s": t["run_s"],
                 "n_steps": t["n_steps"],
                 "us_per_step": t["us_per_step"],
+                "cpu_us_per_step": t["cpu_us_per_step"],
                 "electrical_us_per_instant": t.get("electrical_us_per_instant"),
                 "bearing_time_s": duration_s,
             }
@@ -87,14 +88,15 @@ def run_bench(duration_s: float = 0.03, fresh_cache: bool = True) -> dict:
 
 def format_table(report: dict) -> str:
     head = (
-        f"{'case':50s} {'us/step':>8s} {'rel':>5s} {'run s':>7s} {'compile s':>9s} "
-        f"{'elec us/inst':>12s}"
+        f"{'case':50s} {'us/step':>8s} {'cpu us':>7s} {'rel':>5s} {'run s':>7s} "
+        f"{'compile s':>9s} {'elec us/inst':>12s}"
     )
     lines = [head, "-" * len(head)]
     for r in report["rows"]:
         el = r["electrical_us_per_instant"]
+        elec = "-" if el is None else f"{el:.1f}"
         lines.append(
-            f"{r['case']:50s} {r['us_per_step']:8.3f} {r['relative_cost']:5.2f} "
-            f"{r['run_s']:7.3f} {r['compile_s']:9.2f} {'-' if el is None else f'{el:12.1f}':>12s}"
+            f"{r['case']:50s} {r['us_per_step']:8.3f} {r['cpu_us_per_step']:7.3f} "
+            f"{r['relative_cost']:5.2f} {r['run_s']:7.3f} {r['compile_s']:9.2f} {elec:>12s}"
         )
     return "\n".join(lines)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 
 import click
@@ -75,7 +76,11 @@ def simulate(scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt
     )
     check_writable(out)
     try:
-        result = run(scene, progress=not quiet)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = run(scene, progress=not quiet)
+        for w in caught:
+            click.echo(f"signatelec: warning: {w.message}", err=True)
     except SceneError as exc:
         raise InputError(str(exc)) from None
     except DivergenceError as exc:

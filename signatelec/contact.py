@@ -68,6 +68,20 @@ def critical_damping(stiffness_n_m, reduced_mass_kg):
     return 2.0 * np.sqrt(np.maximum(stiffness_n_m, 0.0) * reduced_mass_kg)
 
 
+def hertz_critical_damping(overlap_m, coefficient, reduced_mass_kg):
+    """Critical damping (eq. 5) at the Hertz tangent stiffness (eq. 9), N s/m.
+
+    ``critical_damping(hertz_normal_stiffness(delta, c), m)`` in closed form,
+    2 sqrt(1.5 c m) delta^{1/4}: the kernel keeps the constant and the delta^{1/4} it shares
+    with the tangential damping.
+    """
+    return (
+        2.0
+        * np.sqrt(1.5 * coefficient * reduced_mass_kg)
+        * np.sqrt(np.sqrt(np.maximum(overlap_m, 0.0)))
+    )
+
+
 def damped_normal_force(elastic_force_n, damping_n_s_m, closing_speed_m_s):
     """Total normal force F_e + C v_n, clamped at zero: a contact never attracts (eq. 3, 8)."""
     return np.maximum(elastic_force_n + damping_n_s_m * closing_speed_m_s, 0.0)

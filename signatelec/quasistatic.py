@@ -585,9 +585,9 @@ def solve_equilibrium_over_time(
     for the shift s, with the ball forces of :func:`ball_loads` (Harris 2001, section 7.3, in 2D
     and for arbitrary ball angles). The residual is the gradient of a convex potential (elastic
     energy minus the work of the load), so Newton on the analytic Jacobian
-    ``sum_k (dQ_i,k / d delta_k) u_k u_k^T`` with backtracking on that potential converges from
-    any start; it starts from a shift that squeezes at least two balls, so a large clearance
-    (few balls loaded) is handled, and the Jacobian is regularised while it is singular.
+    ``sum_k (dQ_i,k / d delta_k) u_k u_k^T``, damped by backtracking on that potential, is
+    globally convergent. It starts from a shift that squeezes at least two balls, so a large
+    clearance (few balls loaded) is handled, and the Jacobian is regularised while singular.
 
     All instants are iterated together (one vectorised Newton), started from the solution of the
     first instant: the load is the same, only the ball angles move, so a few iterations suffice
@@ -688,10 +688,10 @@ def solve_equilibrium(
         radial_load_n,
         clearance_m,
         omega_rad_s,
-        law,
-        centrifugal,
-        gravity,
-        linear_stiffness_n_m,
-        initial_shift_xy_m,
+        law=law,
+        centrifugal=centrifugal,
+        gravity=gravity,
+        linear_stiffness_n_m=linear_stiffness_n_m,
+        initial_shift_xy_m=initial_shift_xy_m,
     )
     return QuasiStaticState(**{k: v[0] for k, v in vars(state).items()})

@@ -31,13 +31,11 @@ from signatelec import contact as _contact
 
 # No nnan/ninf: the divergence check relies on math.isfinite.
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
-_jit = njit(cache=True, inline="always", fastmath=FASTMATH)
+_jit = njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 hertz_normal_force = _jit(_contact.hertz_normal_force)
-hertz_normal_stiffness = _jit(_contact.hertz_normal_stiffness)
 hertz_elastic_energy = _jit(_contact.hertz_elastic_energy)
 linear_normal_force = _jit(_contact.linear_normal_force)
 linear_elastic_energy = _jit(_contact.linear_elastic_energy)
-critical_damping = _jit(_contact.critical_damping)
 damped_normal_force = _jit(_contact.damped_normal_force)
 tangential_force = _jit(_contact.tangential_force)
 coulomb_limit = _jit(_contact.coulomb_limit)
@@ -49,13 +47,15 @@ P_G, P_MU, P_MAXFRAC = 16, 17, 18
 P_COEF = 20  # 5 normal-law coefficients, by contact type
 P_MRED = 25  # 5 reduced masses, by contact type
 P_KT = 30  # 2 tangential stiffness factors (inner, outer): K_t = P_KT * sqrt(delta) (Hertz)
-N_PARAMS = 32
+P_DN = 32  # 5 normal damping factors: C_n = P_DN * delta^{1/4} (Hertz) or P_DN (linear)
+P_DTG = 37  # 2 tangential damping factors (inner, outer), same form
+N_PARAMS = 40
 
 # Status codes written to status[0]; status[1] step, status[2] body, status[3] contact type.
 OK, OVERLAP, NONFINITE = 0, 1, 2
 
 
-@njit(cache=True, inline="always", fastmath=FASTMATH)
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 def schedule(t, p):
     """Outer race radius and its rate, applied F_r, inner-ring speed at time t (seed 2.2.1-2.2.2).
 
@@ -82,24 +82,30 @@ def schedule(t, p):
     return r_out, r_rate, fr, omega
 
 
-@njit(cache=True, inline="always", fastmath=FASTMATH)
-def normal_law(overlap, closing_speed, coef, reduced_mass):
-    """Elastic and total normal force of one contact (seed eqs 3, 5, 8, 9)."""
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def normal_law(overlap, closing_speed, kind, p):
+    """Elastic and total normal force of one contact of type ``kind`` (seed eqs 3, 5, 8, 9).
+
+    Returns (elastic force, total force, delta^{1/4}); the damping is critical with the tangent
+    stiffness, C_n = P_DN delta^{1/4} = contact.hertz_critical_damping (Hertz) or constant
+    (linear), and delta^{1/4} is reused by the tangential damping.
+    """
+    quarter = 1.0
     if LINEAR:
-        fe = linear_normal_force(overlap, coef)
-        kn = coef
+        fe = linear_normal_force(overlap, p[P_COEF + kind])
     else:
-        fe = hertz_normal_force(overlap, coef)
-        kn = hertz_normal_stiffness(overlap, coef)
+        fe = hertz_normal_force(overlap, p[P_COEF + kind])
+        if DAMPING:
+            quarter = math.sqrt(math.sqrt(overlap))
     if DAMPING:
-        fn = damped_normal_force(fe, critical_damping(kn, reduced_mass), closing_speed)
+        fn = damped_normal_force(fe, p[P_DN + kind] * quarter, closing_speed)
     else:
         fn = max(fe, 0.0)
-    return fe, fn
+    return fe, fn, quarter
 
 
-@njit(cache=True, inline="always", fastmath=FASTMATH)
-def tangential_law(k, side, overlap, slip_speed, fn, p, xi, dt):
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def tangential_law(k, side, overlap, quarter, slip_speed, fn, p, xi, dt):
     """Tangential force on a ball/raceway contact: Mindlin stiffness (eq. 7), critical damping
     (eq. 5), seed displacement v_t dt or accumulated spring, Coulomb limit (eq. 4).
 
@@ -112,7 +118,7 @@ def tangential_law(k, side, overlap, slip_speed, fn, p, xi, dt):
         kt = p[P_KT + side] * math.sqrt(overlap)
     ct = 0.0
     if DAMPING:
-        ct = critical_damping(kt, p[P_MRED + side])
+        ct = p[P_DTG + side] * quarter  # critical_damping(kt, m*) with kt ~ sqrt(delta)
     if SPRING:
         # trapezoid rule on d(delta_t)/dt = v_t (xi[:, 2:4] keeps the previous slip speed):
         # second order, like the Verlet step
@@ -130,7 +136,7 @@ def tangential_law(k, side, overlap, slip_speed, fn, p, xi, dt):
     return ft
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status, step):
     """Accelerations of every body at time t from positions and (predicted) velocities."""
     z = spin.shape[0]
@@ -180,8 +186,9 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
         reach = rin + rb
         if d2 < reach * reach:
             d = math.sqrt(d2)
-            nx = dx / d
-            ny = dy / d
+            inv = 1.0 / d
+            nx = dx * inv
+            ny = dy * inv
             ov = reach - d
             if ov > maxfrac * rb:
                 status[0] = OVERLAP
@@ -191,13 +198,13 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
             rvx = vel[k, 0] - vel[ring, 0]
             rvy = vel[k, 1] - vel[ring, 1]
             vclose = -(rvx * nx + rvy * ny)
-            fe, fn = normal_law(ov, vclose, cin, p[P_MRED + 0])
+            fe, fn, qd = normal_law(ov, vclose, 0, p)
             fx = fn * nx
             fy = fn * ny
             ft = 0.0
             if FRICTION:
                 vt = -rvx * ny + rvy * nx - spin[k] * rb - omega * rin
-                ft = tangential_law(k, 0, ov, vt, fn, p, xi, dt)
+                ft = tangential_law(k, 0, ov, qd, vt, fn, p, xi, dt)
                 fx += -ft * ny
                 fy += ft * nx
                 spin_acc[k] += -rb * ft
@@ -227,8 +234,9 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
         inside = r_out - rb
         if r2 > inside * inside or not CENTRIFUGAL:
             r = math.sqrt(r2)
-            nx = x / r
-            ny = y / r
+            inv = 1.0 / r
+            nx = x * inv
+            ny = y * inv
             if not CENTRIFUGAL:
                 # cancel the centrifugal load: add the centripetal force m v_t^2 / r (inward)
                 vtan = -vel[k, 0] * ny + vel[k, 1] * nx
@@ -245,13 +253,13 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                 status[2] = k
                 status[3] = 1
             vclose = vel[k, 0] * nx + vel[k, 1] * ny - r_rate
-            fe, fn = normal_law(ov, vclose, cout, p[P_MRED + 1])
+            fe, fn, qd = normal_law(ov, vclose, 1, p)
             fx = -fn * nx
             fy = -fn * ny
             ft = 0.0
             if FRICTION:
                 vt = -vel[k, 0] * ny + vel[k, 1] * nx + spin[k] * rb
-                ft = tangential_law(k, 1, ov, vt, fn, p, xi, dt)
+                ft = tangential_law(k, 1, ov, qd, vt, fn, p, xi, dt)
                 fx += -ft * ny
                 fy += ft * nx
                 spin_acc[k] += rb * ft
@@ -285,8 +293,9 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
             cy = pos[c, 1]
             # cage ball / its two frictionless boundaries at r_p -+ r_c (table 2 "cage/cage")
             r = math.sqrt(cx * cx + cy * cy)
-            nx = cx / r
-            ny = cy / r
+            inv = 1.0 / r
+            nx = cx * inv
+            ny = cy * inv
             ov = r - rp  # > 0: on the outer boundary (pushed in); < 0: on the inner one
             if ov != 0.0:
                 sgn = 1.0 if ov > 0.0 else -1.0
@@ -297,7 +306,7 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                     status[2] = c
                     status[3] = 3
                 vclose = sgn * (vel[c, 0] * nx + vel[c, 1] * ny)
-                fe, fn = normal_law(aov, vclose, cwall, p[P_MRED + 3])
+                fe, fn, qd = normal_law(aov, vclose, 3, p)
                 acc[c, 0] -= sgn * fn * nx
                 acc[c, 1] -= sgn * fn * ny
                 if ENERGY:
@@ -314,8 +323,9 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                 d2 = dx * dx + dy * dy
                 if d2 < reach * reach:
                     d = math.sqrt(d2)
-                    nx = dx / d
-                    ny = dy / d
+                    inv = 1.0 / d
+                    nx = dx * inv
+                    ny = dy * inv
                     ov = reach - d
                     if ov > maxfrac * rc:
                         status[0] = OVERLAP
@@ -323,7 +333,7 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                         status[2] = c
                         status[3] = 2
                     vclose = -((vel[c, 0] - vel[k, 0]) * nx + (vel[c, 1] - vel[k, 1]) * ny)
-                    fe, fn = normal_law(ov, vclose, cbc, p[P_MRED + 2])
+                    fe, fn, qd = normal_law(ov, vclose, 2, p)
                     acc[c, 0] += fn * nx
                     acc[c, 1] += fn * ny
                     acc[k, 0] -= fn * nx
@@ -347,8 +357,9 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
             d2 = dx * dx + dy * dy
             if d2 < reach * reach:
                 d = math.sqrt(d2)
-                nx = dx / d
-                ny = dy / d
+                inv = 1.0 / d
+                nx = dx * inv
+                ny = dy * inv
                 ov = reach - d
                 if ov > maxfrac * rb:
                     status[0] = OVERLAP
@@ -356,7 +367,7 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                     status[2] = k
                     status[3] = 4
                 vclose = -((vel[m, 0] - vel[k, 0]) * nx + (vel[m, 1] - vel[k, 1]) * ny)
-                fe, fn = normal_law(ov, vclose, cbb, p[P_MRED + 4])
+                fe, fn, qd = normal_law(ov, vclose, 4, p)
                 acc[m, 0] += fn * nx
                 acc[m, 1] += fn * ny
                 acc[k, 0] -= fn * nx
@@ -390,7 +401,7 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
         energy[2] = elastic
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def kinetic_energy(p, vel, spin):
     z = spin.shape[0]
     e = 0.5 * p[P_MI] * (vel[2 * z, 0] ** 2 + vel[2 * z, 1] ** 2)
@@ -400,7 +411,7 @@ def kinetic_energy(p, vel, spin):
     return e
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def run(
     p,
     pos,
@@ -508,7 +519,7 @@ def run(
     return rec
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def start(p, pos, vel, acc, spin, spin_acc, xi, fcon, sched, energy, status):
     """Initial accelerations at t = 0 (needed by velocity Verlet)."""
     forces(0.0, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status, 0)

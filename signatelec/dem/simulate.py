@@ -16,7 +16,12 @@ import numpy as np
 import pandas as pd
 
 from signatelec.bearing import STANDARD_GRAVITY_M_S2, contact_properties
-from signatelec.contact import mindlin_coefficient, tangential_stiffness_from_overlap
+from signatelec.contact import (
+    critical_damping,
+    hertz_critical_damping,
+    mindlin_coefficient,
+    tangential_stiffness_from_overlap,
+)
 from signatelec.dem import kernel_template as K
 from signatelec.dem.kernels import KernelFlags, get_kernel
 from signatelec.dem.stability import StabilityLimit, scene_law, stability_limit
@@ -74,6 +79,12 @@ def kernel_parameters(scene: Scene) -> np.ndarray:
     p[K.P_MAXFRAC] = 0.1
     p[K.P_COEF : K.P_COEF + 5] = coef
     p[K.P_MRED : K.P_MRED + 5] = [c.reduced_mass_kg for c in props]
+    for kind, c in enumerate(props):
+        # damping factors: C = factor (linear) or factor * delta^{1/4} (Hertz), eq. 5 and 9
+        if exponent == 1.0:
+            p[K.P_DN + kind] = critical_damping(coef[kind], c.reduced_mass_kg)
+        else:
+            p[K.P_DN + kind] = hertz_critical_damping(1.0, coef[kind], c.reduced_mass_kg)
     for side in (0, 1):
         c = props[side]
         if exponent == 1.0:
@@ -81,6 +92,8 @@ def kernel_parameters(scene: Scene) -> np.ndarray:
         else:
             mc = mindlin_coefficient(c.radius_eq_m, c.shear_modulus_pa, c.poisson)
             p[K.P_KT + side] = tangential_stiffness_from_overlap(1.0, coef[side], mc)
+        # critical tangential damping 2 sqrt(K_t m*), K_t = P_KT sqrt(delta) -> factor delta^{1/4}
+        p[K.P_DTG + side] = critical_damping(p[K.P_KT + side], c.reduced_mass_kg)
     return p
 
 
@@ -311,6 +324,7 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
 
         bar = tqdm(total=n_steps, unit="step", unit_scale=True, desc="simulate", leave=False)
     t0 = time.perf_counter()
+    cpu0 = time.process_time()
     step = 0
     rec_index = 0
     while step < n_steps:
@@ -322,6 +336,7 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
         if st.status[0] != K.OK:
             break
     run_s = time.perf_counter() - t0
+    run_cpu_s = time.process_time() - cpu0
     if bar is not None:
         bar.close()
     if st.status[0] != K.OK:
@@ -333,6 +348,8 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
         "run_s": run_s,
         "n_steps": n_steps,
         "us_per_step": 1e6 * run_s / max(n_steps, 1),
+        "run_cpu_s": run_cpu_s,
+        "cpu_us_per_step": 1e6 * run_cpu_s / max(n_steps, 1),
         "kernel": flags.key,
     }
     result = SimulationResult(scene, balls, signals, timings, limit)
