@@ -111,6 +111,21 @@ class KernelState:
     work2: np.ndarray
     status: np.ndarray
 
+    @property
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The state arrays in the order the kernel's ``start`` and ``run`` take them."""
+        return (
+            self.pos,
+            self.vel,
+            self.acc,
+            self.spin,
+            self.spin_acc,
+            self.xi,
+            self.fcon,
+            self.sched,
+            self.energy,
+        )
+
     @classmethod
     def initial(cls, scene: Scene) -> KernelState:
         b = scene.bearing
@@ -280,40 +295,10 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
     )
 
     def call(step0: int, count: int, rec_index: int) -> int:
-        return kern.run(
-            p,
-            st.pos,
-            st.vel,
-            st.acc,
-            st.spin,
-            st.spin_acc,
-            st.xi,
-            st.fcon,
-            st.sched,
-            st.energy,
-            st.work2,
-            step0,
-            count,
-            every,
-            rec_index,
-            *rec,
-            st.status,
-        )
+        return kern.run(p, *st.arrays, st.work2, step0, count, every, rec_index, *rec, st.status)
 
     t0 = time.perf_counter()
-    kern.start(
-        p,
-        st.pos,
-        st.vel,
-        st.acc,
-        st.spin,
-        st.spin_acc,
-        st.xi,
-        st.fcon,
-        st.sched,
-        st.energy,
-        st.status,
-    )
+    kern.start(p, *st.arrays, st.status)
     call(0, 0, 0)  # compiles (or loads from the on-disk cache) without advancing
     compile_s = time.perf_counter() - t0
 
