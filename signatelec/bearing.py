@@ -148,8 +148,8 @@ class Bearing:
                 )
             if key in ("ball_material", "cage_material"):
                 if isinstance(value, dict):
-                    value = Material(**value)
-                elif value in MATERIALS:
+                    value = _material_from_dict(value, f"{section}.{key}")
+                elif isinstance(value, str) and value in MATERIALS:
                     value = MATERIALS[value]
                 else:
                     raise BearingError(
@@ -164,12 +164,31 @@ class Bearing:
         return replace(self, **changes)
 
 
+def _material_from_dict(data: dict, where: str) -> Material:
+    """A :class:`Material` from a TOML table; unknown or missing keys raise BearingError."""
+    names = [f.name for f in fields(Material)]
+    for key, value in data.items():
+        if key not in names:
+            raise BearingError(
+                f"{where}.{key} = {value!r}: unknown key; allowed: {', '.join(names)}"
+            )
+    missing = [n for n in names if n not in data]
+    if missing:
+        raise BearingError(
+            f"{where} = {data!r}: missing {', '.join(missing)}; a material table needs "
+            f"{', '.join(names)}"
+        )
+    return Material(**data)
+
+
 def validate_bearing(b: Bearing, section: str = "bearing") -> None:
     """Raise :class:`BearingError` naming the first non-physical field."""
 
     def bad(key: str, value, allowed: str) -> BearingError:
         return BearingError(f"{section}.{key} = {value!r}: {allowed}")
 
+    if not isinstance(b.name, str):
+        raise bad("name", b.name, "must be a string")
     if isinstance(b.n_balls, bool) or not isinstance(b.n_balls, int | np.integer):
         raise bad("n_balls", b.n_balls, "must be an integer >= 3")
     if b.n_balls < 3:
@@ -192,17 +211,31 @@ def validate_bearing(b: Bearing, section: str = "bearing") -> None:
         if not math.isfinite(v) or v <= 0.0:
             raise bad(key, v, "must be a finite number > 0")
     mu = b.friction_coefficient
-    if not isinstance(mu, int | float) or not math.isfinite(mu) or mu < 0.0 or mu > 2.0:
+    if (
+        isinstance(mu, bool)
+        or not isinstance(mu, int | float)
+        or not math.isfinite(mu)
+        or not 0.0 <= mu <= 2.0
+    ):
         raise bad("friction_coefficient", mu, "must be a finite number in [0, 2]")
     for mat_key in ("ball_material", "cage_material"):
         m = getattr(b, mat_key)
+        if not isinstance(m, Material):
+            raise bad(mat_key, m, f"must be one of {', '.join(MATERIALS)} or a Material")
+        if not isinstance(m.name, str):
+            raise bad(f"{mat_key}.name", m.name, "must be a string")
         for attr, lo, hi in (
             ("youngs_modulus_pa", 1e6, 1e13),
             ("poisson", 0.0, 0.4999),
             ("density_kg_m3", 1.0, 1e5),
         ):
             v = getattr(m, attr)
-            if not isinstance(v, int | float) or not math.isfinite(v) or not lo <= v <= hi:
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, int | float)
+                or not math.isfinite(v)
+                or not lo <= v <= hi
+            ):
                 raise bad(f"{mat_key}.{attr}", v, f"must be a finite number in [{lo:g}, {hi:g}]")
     gap = b.outer_race_radius_m - b.inner_race_radius_m - 2.0 * b.ball_radius_m
     if abs(gap) > 1e-9:

@@ -24,26 +24,66 @@ class InputError(click.ClickException):
     exit_code = EXIT_INPUT
 
 
+#: Command-line options of the scene parameters they override, to name them in errors.
+OVERRIDE_OPTIONS = {
+    "radial_load_n": "--radial-load",
+    "clearance_m": "--clearance",
+    "omega_rad_s": "--omega",
+    "duration_s": "--duration",
+    "dt_s": "--dt",
+}
+
+
+def scene_source(scene_file: str | None, overrides: dict | None = None) -> str:
+    """Where a scene came from, for error messages: the file and the options that changed it."""
+    where = f"scene {scene_file!r}" if scene_file else "default scene"
+    given = [
+        f"{OVERRIDE_OPTIONS.get(k, k)} {v!r}" for k, v in (overrides or {}).items() if v is not None
+    ]
+    return f"{where} with {', '.join(given)}" if given else where
+
+
 def load_scene(scene_file: str | None, **overrides) -> Scene:
     try:
         scene = Scene.from_toml(scene_file) if scene_file else Scene()
+    except SceneError as exc:
+        message = str(exc)
+        # a file that cannot be read or parsed names itself ("scene file '...': ...")
+        where = "" if message.startswith("scene file") else f"{scene_source(scene_file)}: "
+        raise InputError(f"{where}{message}") from None
+    try:
         return scene.with_overrides(**overrides)
     except SceneError as exc:
-        where = f"scene {scene_file!r}" if scene_file else "scene"
-        raise InputError(f"{where}: {exc}") from None
+        raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
 
 
 def check_writable(out: str) -> None:
-    """Fail before a long run when the output location cannot be written."""
+    """Fail before a long run when the output location cannot be written.
+
+    The nearest existing ancestor of ``out`` must be a directory where a file can be created
+    (probed with a temporary file, removed at once); nothing is left behind.
+    """
+    import os
+    import tempfile
+
+    if not out.strip():
+        raise InputError(f"--out {out!r}: must name a directory")
     path = Path(out)
-    parent = path.parent if str(path.parent) else Path(".")
-    probe = parent
+    if path.exists() and not path.is_dir():
+        raise InputError(f"--out {out!r}: exists and is not a directory; choose a directory")
+    probe = path
     while not probe.exists() and probe != probe.parent:
         probe = probe.parent
-    import os
-
-    if (path.exists() and not path.is_dir()) or not os.access(probe, os.W_OK | os.X_OK):
-        raise InputError(f"--out {out!r}: not a writable directory")
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise InputError(f"--out {out!r}: {str(probe)!r} is not a writable directory")
+    try:
+        with tempfile.TemporaryFile(dir=probe, prefix=".signatelec-probe"):
+            pass
+    except OSError as exc:
+        raise InputError(
+            f"--out {out!r}: cannot create files in {str(probe)!r} ({exc.strerror or exc}); "
+            "choose a writable directory"
+        ) from None
 
 
 @click.group()
@@ -66,14 +106,14 @@ def simulate(scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt
     from signatelec.dem.simulate import DivergenceError
     from signatelec.dem.simulate import simulate as run
 
-    scene = load_scene(
-        scene_file,
-        radial_load_n=radial_load_n,
-        clearance_m=clearance_m,
-        omega_rad_s=omega_rad_s,
-        duration_s=duration_s,
-        dt_s=dt_s,
-    )
+    overrides = {
+        "radial_load_n": radial_load_n,
+        "clearance_m": clearance_m,
+        "omega_rad_s": omega_rad_s,
+        "duration_s": duration_s,
+        "dt_s": dt_s,
+    }
+    scene = load_scene(scene_file, **overrides)
     check_writable(out)
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -82,7 +122,7 @@ def simulate(scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt
         for w in caught:
             click.echo(f"signatelec: warning: {w.message}", err=True)
     except SceneError as exc:
-        raise InputError(str(exc)) from None
+        raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
     except DivergenceError as exc:
         click.echo(f"signatelec: error: {exc}", err=True)
         sys.exit(EXIT_DIVERGED)
@@ -161,6 +201,30 @@ def bench(out, duration_s, fresh_cache):
     tmp.write_text(json.dumps(report, indent=2))
     tmp.replace(out)
     click.echo(f"wrote {out}")
+
+
+@cli.command()
+@click.option("--out", "out", type=str, required=True, help="Output directory for the PNGs.")
+@click.option("--quick", is_flag=True, help="Short runs (set-up + 2 ms): a check, not the figures.")
+@click.option("--quiet", is_flag=True, help="No progress bar or file list.")
+def figures(out, quick, quiet):
+    """Regenerate the seed's figures 6-11: DIR/figure_6_9.png, figure_7_10.png, figure_8_11.png."""
+    from signatelec.dem.simulate import DivergenceError
+    from signatelec.plots import paper_figures
+
+    check_writable(out)
+    try:
+        paths = paper_figures(out, quick=quick, progress=not quiet)
+    except SceneError as exc:
+        raise InputError(str(exc)) from None
+    except DivergenceError as exc:
+        click.echo(f"signatelec: error: {exc}", err=True)
+        sys.exit(EXIT_DIVERGED)
+    except OSError as exc:
+        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+    if not quiet:
+        for path in paths:
+            click.echo(f"wrote {path}")
 
 
 def main(argv: list[str] | None = None) -> None:

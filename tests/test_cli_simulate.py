@@ -22,13 +22,23 @@ def run_cli(argv):
 
 def test_simulate_writes_documented_parquet(tmp_path):
     out = tmp_path / "run"
-    code = run_cli(["simulate", "--duration", "0.01", "--radial-load", "2910", "--quiet",
-                    "--out", str(out)])
+    code = run_cli(
+        ["simulate", "--duration", "0.01", "--radial-load", "2910", "--quiet", "--out", str(out)]
+    )
     assert code == 0
     balls = pd.read_parquet(out / "balls.parquet")
     signals = pd.read_parquet(out / "signals.parquet")
-    for col in ("time_s", "ball", "angle_rad", "inner_force_n", "outer_force_n", "current_a",
-                "potential_v", "inner_area_m2", "outer_area_m2"):
+    for col in (
+        "time_s",
+        "ball",
+        "angle_rad",
+        "inner_force_n",
+        "outer_force_n",
+        "current_a",
+        "potential_v",
+        "inner_area_m2",
+        "outer_area_m2",
+    ):
         assert col in balls
     for col in ("time_s", "inner_x_m", "inner_y_m", "resistance_ohm"):
         assert col in signals

@@ -19,8 +19,11 @@ from signatelec.dem.simulate import KernelState, kernel_parameters
 
 @pytest.mark.parametrize("law", ["hertz", "linear"])
 def test_outer_contact_force_equals_contact_functions(law):
-    scene = make_scene(radial_load_n=0.0, omega_rad_s=0.0,
-                       effects={"contact_law": law, "gravity": False, "electrical": False})
+    scene = make_scene(
+        radial_load_n=0.0,
+        omega_rad_s=0.0,
+        effects={"contact_law": law, "gravity": False, "electrical": False},
+    )
     kern = get_kernel(KernelFlags.from_scene(scene))
     p = kernel_parameters(scene)
     st = KernelState.initial(scene)
@@ -30,16 +33,31 @@ def test_outer_contact_force_equals_contact_functions(law):
     st.pos[0] = (0.0, -(b.outer_race_radius_m - b.ball_radius_m + overlap))
     st.vel[0] = (slip, -closing)  # tangent t = perp(n) = (1, 0) at the bottom
     t_steady = 1.0  # after every set-up phase
-    kern.forces(t_steady, p, st.pos, st.vel, st.spin, st.acc, st.spin_acc, st.xi, st.fcon,
-                st.sched, st.energy, st.status, 0)
+    kern.forces(
+        t_steady,
+        p,
+        st.pos,
+        st.vel,
+        st.spin,
+        st.acc,
+        st.spin_acc,
+        st.xi,
+        st.fcon,
+        st.sched,
+        st.energy,
+        st.status,
+        0,
+    )
     props = contact_properties(b)[OUTER]
     coef = p[K.P_COEF + OUTER]
     if law == "hertz":
         fe = contact.hertz_normal_force(overlap, coef)
-        cn = contact.critical_damping(contact.hertz_normal_stiffness(overlap, coef),
-                                      props.reduced_mass_kg)
-        kt = contact.mindlin_tangential_stiffness(fe, props.radius_eq_m, props.shear_modulus_pa,
-                                                  props.poisson)
+        cn = contact.critical_damping(
+            contact.hertz_normal_stiffness(overlap, coef), props.reduced_mass_kg
+        )
+        kt = contact.mindlin_tangential_stiffness(
+            fe, props.radius_eq_m, props.shear_modulus_pa, props.poisson
+        )
     else:
         fe = contact.linear_normal_force(overlap, coef)
         cn = contact.critical_damping(coef, props.reduced_mass_kg)
