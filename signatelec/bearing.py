@@ -133,8 +133,12 @@ class Bearing:
     # --- serialisation --------------------------------------------------------------
     def to_dict(self) -> dict:
         d = asdict(self)
-        d["ball_material"] = self.ball_material.name
-        d["cage_material"] = self.cage_material.name
+        for key in ("ball_material", "cage_material"):
+            material = getattr(self, key)
+            # a catalogue material by its name; any other (e.g. a mass-scaled cage, see
+            # signatelec.fidelity) as its full table, so that from_dict gives it back
+            if MATERIALS.get(material.name) == material:
+                d[key] = material.name
         return d
 
     @classmethod

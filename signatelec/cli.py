@@ -13,6 +13,7 @@ from pathlib import Path
 
 import click
 
+from signatelec.fidelity import FIDELITY_NAMES
 from signatelec.io import OutputError
 from signatelec.scene import Scene, SceneError
 
@@ -99,9 +100,18 @@ def cli() -> None:
 @click.option("--omega", "omega_rad_s", type=float, help="Inner-ring speed, rad/s.")
 @click.option("--duration", "duration_s", type=float, help="Simulated time, s.")
 @click.option("--dt", "dt_s", type=float, help="Time step, s.")
+@click.option(
+    "--fidelity",
+    type=click.Choice(FIDELITY_NAMES),
+    default=None,
+    help="Tier (quasistatic: steady phase, ms; dem) or preset (fast, balanced, reference; "
+    "see README); an explicit --dt wins over the preset's.",
+)
 @click.option("--out", "out", type=str, required=True, help="Output directory.")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary.")
-def simulate(scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt_s, out, quiet):
+def simulate(
+    scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt_s, fidelity, out, quiet
+):
     """Simulate a scene; write DIR/balls.parquet and DIR/signals.parquet."""
     from signatelec.dem.simulate import DivergenceError
     from signatelec.dem.simulate import simulate as run
@@ -114,6 +124,16 @@ def simulate(scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt
         "dt_s": dt_s,
     }
     scene = load_scene(scene_file, **overrides)
+    if fidelity is not None:
+        from signatelec.fidelity import apply_fidelity
+
+        try:
+            scene = apply_fidelity(scene, fidelity)
+            if dt_s is not None:  # an explicit --dt wins over the preset's
+                scene = scene.with_overrides(dt_s=dt_s)
+        except SceneError as exc:
+            where = scene_source(scene_file, overrides)
+            raise InputError(f"{where} at --fidelity {fidelity}: {exc}") from None
     check_writable(out)
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -145,7 +165,10 @@ def summary(result, out: str | None = None) -> str:
         f"{sc.operating.clearance_m * 1e6:g} um, omega = {sc.operating.omega_rad_s:g} rad/s, "
         f"dt = {sc.numerics.dt_s:g} s, {sc.numerics.duration_s:g} s",
         f"run: {t['n_steps']} steps in {t['run_s']:.3f} s ({t['us_per_step']:.3f} us/step), "
-        f"compile/load {t['compile_s']:.2f} s",
+        f"compile/load {t['compile_s']:.2f} s"
+        if t.get("tier") != "quasistatic"
+        else f"run: quasi-static tier, {t['n_instants']} steady instants in "
+        f"{t['total_s'] * 1e3:.2f} ms, compile/load {t['compile_s']:.2f} s",
     ]
     if len(st):
         kin = b.cage_speed_rad_s(sc.operating.omega_rad_s)
@@ -225,6 +248,29 @@ def figures(out, quick, quiet):
     if not quiet:
         for path in paths:
             click.echo(f"wrote {path}")
+
+
+@cli.group()
+def study() -> None:
+    """Studies of the model (accuracy-cost, ...)."""
+
+
+@study.command("accuracy-cost")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--quick", is_flag=True, help="One scene, three settings: a pipeline check.")
+@click.option("--fresh", is_flag=True, help="Ignore finished cases cached in DIR/.cache.")
+@click.option("--quiet", is_flag=True, help="No progress bar or file list.")
+def accuracy_cost(out, quick, fresh, quiet):
+    """Fidelity ladder against a dt = 1e-8 s reference: DIR/accuracy_cost.{parquet,md,png}."""
+    from signatelec.accuracy_cost import run_study
+
+    check_writable(out)
+    try:
+        run_study(
+            out, quick=quick, progress=not quiet, fresh=fresh, log=None if quiet else click.echo
+        )
+    except OSError as exc:
+        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -411,7 +411,8 @@ def kinetic_energy(p, vel, spin):
     return e
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+# no fastmath here: LLVM would fold the math.isfinite divergence check to True
+@njit(cache=True, error_model="numpy")
 def run(
     p,
     pos,

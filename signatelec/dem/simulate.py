@@ -267,9 +267,15 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
     """Simulate ``scene`` (default: the seed's scene) with the DEM kernel.
 
     Raises :class:`SceneError` when dt is above the stability limit (before running) and
-    :class:`DivergenceError` when the run leaves the physical range.
+    :class:`DivergenceError` when the run leaves the physical range. A scene whose
+    ``numerics.fidelity`` is "quasistatic" goes to
+    :func:`signatelec.quasistatic_tier.simulate_quasistatic` (steady phase only, no time step).
     """
     scene = scene or Scene()
+    if scene.numerics.fidelity == "quasistatic":
+        from signatelec.quasistatic_tier import simulate_quasistatic
+
+        return simulate_quasistatic(scene, progress=progress)
     limit = stability_limit(scene)
     if scene.numerics.dt_s > limit.dt_limit_s:
         raise SceneError(

@@ -1,0 +1,154 @@
+"""Fidelity presets: named bundles of tier, numerics and effects (issue 4).
+
+``apply_fidelity(scene, name)`` returns the scene run at one rung of the fidelity ladder:
+
+- ``"quasistatic"``: the quasi-static tier (:mod:`signatelec.quasistatic_tier`), steady phase
+  only, no dynamics; milliseconds per scene.
+- ``"dem"``: the DEM with the scene's own numerics (the paper's: velocity Verlet, dt = 1e-7 s,
+  every seed effect, unless the scene says otherwise).
+- the presets of :data:`PRESETS`, chosen from the accuracy-cost study
+  (``docs/accuracy_cost/accuracy_cost.md``; errors relative to a dt = 1e-8 s reference, worst
+  over five scenes from 0.1 to 0.4 C_r, -10 um to +40 um):
+
+  - ``"fast"``: cage balls 80x heavier (mass scaling), symplectic Euler, dt at 0.95 of the
+    stability limit that leaves (~1.35e-6 s at the seed's load): ~1/10 of the paper's cost,
+    mean resistance within 0.03 % and ball-pass amplitude within 0.9 % of the reference;
+  - ``"balanced"``: cage balls 80x heavier, velocity Verlet, dt at half that limit (~7e-7 s):
+    ~1/6 of the paper's cost, within 0.03 % and 0.5 %;
+  - ``"reference"``: dt = 1e-8 s, every seed effect: the study's reference (~10x the paper's
+    cost; the paper's dt = 1e-7 s is within 0.1 % of it on both measures).
+
+  At large dt symplectic Euler is the more accurate of the two integrators here (study: 0.9 %
+  against 6 % on the ball-pass amplitude at 0.95 of the limit with heavy cage balls).
+
+Cage-mass scaling is a numerical device: the stability limit of the seed's scene is set by the
+light polyamide cage balls (about 5 mg against 8 g for a steel ball); they carry no current and
+forces of the order of a newton, so their inertia hardly shows in the resistance, and making
+them heavier lets dt grow to the steel balls' own limit. The scaled material is part of the
+scene's bearing (``cage_material`` named "polyamide (mass x80)"), written with the results.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, replace
+
+from signatelec.bearing import MATERIALS, Material
+from signatelec.scene import FIDELITIES, Scene, SceneError
+
+_SCALED = re.compile(r"^(?P<base>.*) \(mass x(?P<factor>[0-9.eE+-]+)\)$")
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named bundle: tier, integrator, time step, cage-mass scaling, effect overrides.
+
+    ``dt_s`` is absolute; ``dt_limit_fraction`` sets dt to that fraction of the scene's
+    stability limit (after the mass scaling). Effects not named keep the scene's.
+    """
+
+    description: str
+    fidelity: str = "dem"
+    integrator: str = "verlet"
+    dt_s: float | None = None
+    dt_limit_fraction: float | None = None
+    cage_mass_scale: float = 1.0
+    effects: tuple[tuple[str, object], ...] = ()
+
+
+PRESETS: dict[str, Preset] = {
+    "fast": Preset(
+        "DEM, cage balls 80x heavier, symplectic Euler, dt = 0.95 x stability limit "
+        "(~1.35e-6 s): ~1/10 of the paper's cost; mean resistance within 0.03 %, ball-pass "
+        "amplitude within 0.9 % of the reference (study)",
+        integrator="euler",
+        dt_limit_fraction=0.95,
+        cage_mass_scale=80.0,
+    ),
+    "balanced": Preset(
+        "DEM, cage balls 80x heavier, velocity Verlet, dt = 0.5 x stability limit (~7e-7 s): "
+        "~1/6 of the paper's cost; mean resistance within 0.03 %, ball-pass amplitude within "
+        "0.5 % of the reference (study)",
+        dt_limit_fraction=0.5,
+        cage_mass_scale=80.0,
+    ),
+    "reference": Preset(
+        "DEM, dt = 1e-8 s, every seed effect: the accuracy-cost study's reference (~10x the "
+        "paper's cost)",
+        dt_s=1e-8,
+        effects=tuple(
+            (name, True)
+            for name in ("cage", "friction", "damping", "gravity", "centrifugal", "spin_up")
+        )
+        + (("contact_law", "hertz"), ("tangential", "seed")),
+    ),
+}
+
+#: Every name ``apply_fidelity`` and ``signatelec simulate --fidelity`` accept.
+FIDELITY_NAMES: tuple[str, ...] = (*FIDELITIES, *PRESETS)
+
+
+def unscaled_cage_material(material: Material) -> Material:
+    """The material before :func:`scale_cage_mass` (itself when it was not scaled)."""
+    match = _SCALED.match(material.name)
+    if match is None:
+        return material
+    factor = float(match["factor"])
+    base = replace(material, name=match["base"], density_kg_m3=material.density_kg_m3 / factor)
+    catalogue = MATERIALS.get(base.name)
+    # give the catalogue's exact density back when the division only rounds it
+    if catalogue is not None and abs(catalogue.density_kg_m3 / base.density_kg_m3 - 1) < 1e-12:
+        return catalogue
+    return base
+
+
+def cage_mass_scale(scene: Scene) -> float:
+    """How many times heavier than its unscaled material the scene's cage balls are."""
+    material = scene.bearing.cage_material
+    return material.density_kg_m3 / unscaled_cage_material(material).density_kg_m3
+
+
+def scale_cage_mass(scene: Scene, factor: float) -> Scene:
+    """The scene with cage balls ``factor`` times as heavy as the unscaled material's.
+
+    The density of the cage material is multiplied (radius, stiffness and friction unchanged)
+    and the material renamed "<name> (mass x<factor>)"; factor 1 restores the material. Raises
+    :class:`SceneError` when the density leaves the bearing's allowed range.
+    """
+    b = scene.bearing
+    base = unscaled_cage_material(b.cage_material)
+    if factor == 1.0:
+        material = base
+    else:
+        material = replace(
+            base, name=f"{base.name} (mass x{factor:g})", density_kg_m3=base.density_kg_m3 * factor
+        )
+    try:
+        return replace(scene, bearing=b.with_(cage_material=material))
+    except ValueError as exc:
+        raise SceneError(f"cage mass scale {factor:g}: {exc}") from None
+
+
+def apply_fidelity(scene: Scene, name: str) -> Scene:
+    """The scene at fidelity ``name``: a tier (``"quasistatic"``, ``"dem"``) or a preset.
+
+    A preset sets the integrator, the time step (absolute or from the stability limit of the
+    scene as it then is: load, clearance and speed matter), the cage-mass scaling and its
+    effects; the rest of the scene is kept. Unknown names raise :class:`SceneError`.
+    """
+    if name in FIDELITIES:
+        return scene.with_overrides(fidelity=name)
+    if name not in PRESETS:
+        raise SceneError(f"fidelity = {name!r}: must be one of {', '.join(FIDELITY_NAMES)}")
+    preset = PRESETS[name]
+    scene = scene.with_overrides(
+        fidelity=preset.fidelity, integrator=preset.integrator, **dict(preset.effects)
+    )
+    scene = scale_cage_mass(scene, preset.cage_mass_scale)
+    if preset.dt_limit_fraction is not None:
+        from signatelec.dem.stability import stability_limit
+
+        dt = preset.dt_limit_fraction * stability_limit(scene).dt_limit_s
+    else:
+        dt = preset.dt_s
+    return scene.with_overrides(dt_s=dt)
