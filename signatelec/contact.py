@@ -190,7 +190,7 @@ def law_coefficients(
     bearing,
     law: str = "hertz",
     linear_stiffness_n_m: float | None = None,
-    reference_force_n: float = 1000.0,
+    reference_force_n=1000.0,
 ) -> tuple[np.ndarray, float]:
     """Normal-law coefficients of every contact type and the law's exponent.
 
@@ -203,8 +203,9 @@ def law_coefficients(
       steel); the other contacts keep eq. 6 (exponent 3/2).
     - ``linear``: eq. 3 with constant stiffness (exponent 1). ``linear_stiffness_n_m`` sets the
       ball/outer-raceway stiffness; by default it is the Hertz secant stiffness F/delta at
-      ``reference_force_n``. Other contact types take the Hertz secant at the same force,
-      c^{2/3} F^{1/3}, so the linear law matches Hertz at that force on every contact.
+      ``reference_force_n``. Other contact types take the Hertz secant c^{2/3} F^{1/3} at their
+      own reference force, so the linear law matches Hertz at the force each contact carries;
+      ``reference_force_n`` is one force for all types or five, one per contact type.
     """
     from signatelec.bearing import INNER, OUTER, contact_properties
 
@@ -221,7 +222,7 @@ def law_coefficients(
             c[idx] = harris_coefficient(total, harris_deformation_number(diff))
         return c, 1.5
     if law == "linear":
-        secant = hertz ** (2.0 / 3.0) * reference_force_n ** (1.0 / 3.0)
+        secant = hertz ** (2.0 / 3.0) * np.asarray(reference_force_n, dtype=float) ** (1.0 / 3.0)
         if linear_stiffness_n_m is not None:
             secant = secant * (linear_stiffness_n_m / secant[OUTER])
         return secant, 1.0

@@ -2,13 +2,20 @@
 
 For each body (ball translation and spin, cage ball, inner ring) the contacts it can carry are
 summed as springs at their tangent stiffness under a conservative force scale, giving a natural
-frequency omega and a damping ratio zeta. An explicit central-difference (Verlet) step of a
-damped oscillator is stable for ``dt < 2 (sqrt(1 + zeta^2) - zeta) / omega``; the scene's limit
-is the smallest over bodies.
+frequency omega and a damping ratio zeta. The step of a damped oscillator x'' = -omega^2 x -
+2 zeta omega x' is stable for omega dt < 2 (sqrt(1 + z^2) - z) with z = zeta for symplectic Euler
+(damping at v_n) and z = 2 zeta for the kernel's velocity Verlet, whose damping takes the
+predicted velocity v_n + a_n dt (von Neumann analysis of the 3x3 amplification matrix; checked in
+tests/test_stability.py). The scene's limit is the smallest over bodies.
 
-Force scale: ``F_s = 2 (F_r + Q_preload) + F_c`` (a sudden load may overshoot to twice its static
-value; one ball may carry F_r when the clearance leaves a single ball loaded) plus 1 N. Cage
-contacts only carry what friction can pass to the balls, so they take ``max(mu, 0.05) F_s``.
+Force scales:
+
+- ball/raceway contacts: ``F_s = 2 (F_r + Q_preload) + F_c + 1 N`` (a sudden load may overshoot
+  to twice its static value; one ball may carry F_r when a clearance leaves a single ball loaded);
+- cage contacts carry the chain force that drives the unloaded balls: twice
+  ``ceil(Z/2) (m_b + I_b/R_b^2) a_t`` with a_t the peak orbital acceleration of the sinusoidal
+  spin-up, ``r_p omega_c pi / (2 T_spin)``, but never more than friction can pass,
+  ``max(mu, 0.05) F_s`` (also the value for a spin-up step).
 """
 
 from __future__ import annotations
@@ -36,16 +43,40 @@ class StabilityLimit:
         )
 
 
-def linear_reference_force_n(scene) -> float:
-    """Force at which the linear law matches Hertz: Stribeck's maximum ball load 4.37 F_r / Z."""
+def stribeck_load_n(scene) -> float:
+    """Stribeck's maximum ball load 4.37 F_r / Z (at least 10 N), N."""
     return max(4.37 * scene.operating.radial_load_n / scene.bearing.n_balls, 10.0)
+
+
+def chain_force_n(scene) -> float:
+    """Force the cage-ball chain passes to drive the unloaded balls through the spin-up, N.
+
+    ``ceil(Z/2) (m_b + I_b/R_b^2) a_t`` with a_t = r_p omega_c pi / (2 T_spin), the peak orbital
+    acceleration of the sinusoidal spin-up; for a spin-up step, what friction can pass to a ball,
+    mu times Stribeck's load.
+    """
+    b = scene.bearing
+    t_spin = scene.procedure.spin_up_time_s if scene.effects.spin_up else 0.0
+    if t_spin <= 0.0:
+        return max(b.friction_coefficient, 0.05) * stribeck_load_n(scene)
+    omega_c = b.cage_speed_rad_s(scene.operating.omega_rad_s)
+    a_t = b.pitch_radius_m * omega_c * math.pi / (2.0 * t_spin)
+    inertia_mass = b.ball_mass_kg + b.ball_inertia_kg_m2 / b.ball_radius_m**2
+    return max(math.ceil(b.n_balls / 2) * inertia_mass * a_t, 1.0)
+
+
+def linear_reference_forces_n(scene) -> list[float]:
+    """Force at which each contact type's linear law matches Hertz (contact.law_coefficients):
+    Stribeck's load on ball/raceway and ball/ball contacts, the chain force on cage contacts."""
+    q, chain = stribeck_load_n(scene), chain_force_n(scene)
+    return [q, q, chain, chain, q]
 
 
 def scene_law(scene):
     """Normal-law coefficients (5,) and exponent of a scene (see contact.law_coefficients)."""
     stiffness = scene.numerics.linear_stiffness_n_m or None
     return law_coefficients(
-        scene.bearing, scene.effects.contact_law, stiffness, linear_reference_force_n(scene)
+        scene.bearing, scene.effects.contact_law, stiffness, linear_reference_forces_n(scene)
     )
 
 
@@ -63,9 +94,16 @@ def _tangent(coef: float, exponent: float, force_n: float) -> float:
     return exponent * coef ** (1.0 / exponent) * force_n ** ((exponent - 1.0) / exponent)
 
 
-def _damped_limit(stiffness: float, mass: float, zeta: float) -> tuple[float, float]:
-    omega = math.sqrt(stiffness / mass)
-    return 2.0 * (math.sqrt(1.0 + zeta * zeta) - zeta) / omega, omega
+def damped_step_limit(omega_rad_s: float, zeta: float, integrator: str = "verlet") -> float:
+    """Largest stable step of x'' = -omega^2 x - 2 zeta omega x' for the kernel's schemes, s."""
+    z = 2.0 * zeta if integrator == "verlet" else zeta
+    return 2.0 * (math.sqrt(1.0 + z * z) - z) / omega_rad_s
+
+
+def cage_force_scale_n(scene, force_scale_n: float) -> float:
+    """Force scale of the cage contacts (see the module docstring), N."""
+    cap = max(scene.bearing.friction_coefficient, 0.05) * force_scale_n
+    return min(cap, 2.0 * chain_force_n(scene) + 1.0)
 
 
 def stability_limit(scene) -> StabilityLimit:
@@ -77,7 +115,7 @@ def stability_limit(scene) -> StabilityLimit:
     fc = mb * b.cage_speed_rad_s(scene.operating.omega_rad_s) ** 2 * b.pitch_radius_m
     q_pre = preload_ball_force_n(coef, n, scene.operating.clearance_m)
     fs = 2.0 * (scene.operating.radial_load_n + q_pre) + fc + 1.0
-    f_cage = max(b.friction_coefficient, 0.05) * fs
+    f_cage = cage_force_scale_n(scene, fs)
     k = [_tangent(coef[i], n, fs if i in (INNER, OUTER, BALL_BALL) else f_cage) for i in range(5)]
     damp = 1.0 if e.damping else 0.0
 
@@ -88,7 +126,8 @@ def stability_limit(scene) -> StabilityLimit:
         ktot = sum(s for s, _ in springs)
         ctot = damp * sum(2.0 * math.sqrt(s * m) for s, m in springs)
         zeta = ctot / (2.0 * math.sqrt(ktot * mass))
-        dt, omega = _damped_limit(ktot, mass, zeta)
+        omega = math.sqrt(ktot / mass)
+        dt = damped_step_limit(omega, zeta, scene.numerics.integrator)
         candidates.append(StabilityLimit(dt, name, omega, zeta, fs))
 
     neighbours = (
