@@ -11,9 +11,9 @@ with a 10 um preload, zero clearance and a 40 um clearance), each simulated by a
 quasi-static tier, dt from 2e-8 s to the stability limit, symplectic Euler, the linear and
 Harris laws, no gravity, cage-mass scaling and the presets of signatelec.fidelity. Writes
 ``accuracy_cost.parquet`` (one row per scene and setting), ``accuracy_cost.md`` (tables) and
-``accuracy_cost.png`` (Pareto plot). About 4 minutes on one core; ``--quick`` (one scene, three
-settings, three ball-pass periods) about 10 s. Finished cases are cached in OUT_DIR/.cache, so
-an interrupted run resumes (``--fresh`` starts over). The work is done by
+``accuracy_cost.png`` (Pareto plot). About 1.5 minutes on one core (130 cases); ``--quick``
+(one scene, three settings, three ball-pass periods) about 5 s. Finished cases are cached in
+OUT_DIR/.cache, so an interrupted run resumes (``--fresh`` starts over). The work is done by
 :mod:`signatelec.accuracy_cost`, so the command works from an installed package too.
 """
 

@@ -10,16 +10,19 @@
   (``docs/accuracy_cost/accuracy_cost.md``; errors relative to a dt = 1e-8 s reference, worst
   over five scenes from 0.1 to 0.4 C_r, -10 um to +40 um):
 
-  - ``"fast"``: cage balls 80x heavier (mass scaling), symplectic Euler, dt at 0.95 of the
-    stability limit that leaves (~1.35e-6 s at the seed's load): ~1/10 of the paper's cost,
-    mean resistance within 0.03 % and ball-pass amplitude within 0.9 % of the reference;
-  - ``"balanced"``: cage balls 80x heavier, velocity Verlet, dt at half that limit (~7e-7 s):
-    ~1/6 of the paper's cost, within 0.03 % and 0.5 %;
+  - ``"fast"``: cage balls 80x heavier (mass scaling), symplectic Euler, dt at 0.9 of the
+    stability limit that leaves (~1.4e-6 s at the seed's load): ~1/11 of the paper's cost,
+    mean resistance within 0.03 % and ball-pass amplitude within 0.8 % of the reference;
+  - ``"balanced"``: the paper's physics (no mass scaling), symplectic Euler, dt at 0.9 of the
+    stability limit (~1.9e-7 s): ~1/2 of the paper's cost, within 0.01 % and 0.3 %;
   - ``"reference"``: dt = 1e-8 s, every seed effect: the study's reference (~10x the paper's
     cost; the paper's dt = 1e-7 s is within 0.1 % of it on both measures).
 
-  At large dt symplectic Euler is the more accurate of the two integrators here (study: 0.9 %
-  against 6 % on the ball-pass amplitude at 0.95 of the limit with heavy cage balls).
+  Both cheaper presets use symplectic Euler, whose stability limit with contact damping is
+  about twice velocity Verlet's (damping at v_n rather than at the predicted velocity; see
+  :mod:`signatelec.dem.stability`) for the same accuracy at a given dt. Below about 1/10 of
+  the paper's cost the per-sample work (electrical network and tables at 20 kHz) dominates and
+  a larger dt no longer pays.
 
 Cage-mass scaling is a numerical device: the stability limit of the seed's scene is set by the
 light polyamide cage balls (about 5 mg against 8 g for a steel ball); they carry no current and
@@ -58,19 +61,19 @@ class Preset:
 
 PRESETS: dict[str, Preset] = {
     "fast": Preset(
-        "DEM, cage balls 80x heavier, symplectic Euler, dt = 0.95 x stability limit "
-        "(~1.35e-6 s): ~1/10 of the paper's cost; mean resistance within 0.03 %, ball-pass "
-        "amplitude within 0.9 % of the reference (study)",
+        "DEM, cage balls 80x heavier, symplectic Euler, dt = 0.9 x stability limit "
+        "(~1.4e-6 s): ~1/11 of the paper's cost; mean resistance within 0.03 %, ball-pass "
+        "amplitude within 0.8 % of the reference (accuracy-cost study)",
         integrator="euler",
-        dt_limit_fraction=0.95,
+        dt_limit_fraction=0.9,
         cage_mass_scale=80.0,
     ),
     "balanced": Preset(
-        "DEM, cage balls 80x heavier, velocity Verlet, dt = 0.5 x stability limit (~7e-7 s): "
-        "~1/6 of the paper's cost; mean resistance within 0.03 %, ball-pass amplitude within "
-        "0.5 % of the reference (study)",
-        dt_limit_fraction=0.5,
-        cage_mass_scale=80.0,
+        "DEM, the paper's physics, symplectic Euler, dt = 0.9 x stability limit (~1.9e-7 s): "
+        "~1/2 of the paper's cost; mean resistance within 0.01 %, ball-pass amplitude within "
+        "0.3 % of the reference (accuracy-cost study)",
+        integrator="euler",
+        dt_limit_fraction=0.9,
     ),
     "reference": Preset(
         "DEM, dt = 1e-8 s, every seed effect: the accuracy-cost study's reference (~10x the "
@@ -148,7 +151,7 @@ def apply_fidelity(scene: Scene, name: str) -> Scene:
     if preset.dt_limit_fraction is not None:
         from signatelec.dem.stability import stability_limit
 
-        dt = preset.dt_limit_fraction * stability_limit(scene).dt_limit_s
+        dt = preset.dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
     else:
         dt = preset.dt_s
     return scene.with_overrides(dt_s=dt)
