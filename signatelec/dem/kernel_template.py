@@ -32,7 +32,6 @@ from signatelec import contact as _contact
 # No nnan/ninf: the divergence check relies on math.isfinite.
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 _jit = njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-hertz_normal_force = _jit(_contact.hertz_normal_force)
 hertz_elastic_energy = _jit(_contact.hertz_elastic_energy)
 linear_normal_force = _jit(_contact.linear_normal_force)
 linear_elastic_energy = _jit(_contact.linear_elastic_energy)
@@ -86,26 +85,30 @@ def schedule(t, p):
 def normal_law(overlap, closing_speed, kind, p):
     """Elastic and total normal force of one contact of type ``kind`` (seed eqs 3, 5, 8, 9).
 
-    Returns (elastic force, total force, delta^{1/4}); the damping is critical with the tangent
-    stiffness, C_n = P_DN delta^{1/4} = contact.hertz_critical_damping (Hertz) or constant
-    (linear), and delta^{1/4} is reused by the tangential damping.
+    Returns (elastic force, total force, sqrt(delta), delta^{1/4}); the damping is critical with
+    the tangent stiffness, C_n = P_DN delta^{1/4} = contact.hertz_critical_damping (Hertz) or
+    constant (linear); sqrt(delta) and delta^{1/4} are reused by the tangential law. The Hertz
+    force is contact.hertz_normal_force written with that one square root (the kernel calls this
+    with delta > 0 only); tests/test_kernel_contacts.py holds the two equal.
     """
+    root = 1.0
     quarter = 1.0
     if LINEAR:
         fe = linear_normal_force(overlap, p[P_COEF + kind])
     else:
-        fe = hertz_normal_force(overlap, p[P_COEF + kind])
+        root = math.sqrt(overlap)
+        fe = p[P_COEF + kind] * overlap * root
         if DAMPING:
-            quarter = math.sqrt(math.sqrt(overlap))
+            quarter = math.sqrt(root)
     if DAMPING:
         fn = damped_normal_force(fe, p[P_DN + kind] * quarter, closing_speed)
     else:
         fn = max(fe, 0.0)
-    return fe, fn, quarter
+    return fe, fn, root, quarter
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-def tangential_law(k, side, overlap, quarter, slip_speed, fn, p, xi, dt):
+def tangential_law(k, side, root, quarter, slip_speed, fn, p, xi, dt):
     """Tangential force on a ball/raceway contact: Mindlin stiffness (eq. 7), critical damping
     (eq. 5), seed displacement v_t dt or accumulated spring, Coulomb limit (eq. 4).
 
@@ -115,7 +118,7 @@ def tangential_law(k, side, overlap, quarter, slip_speed, fn, p, xi, dt):
     if LINEAR:
         kt = p[P_KT + side]
     else:
-        kt = p[P_KT + side] * math.sqrt(overlap)
+        kt = p[P_KT + side] * root  # contact.tangential_stiffness_from_overlap
     ct = 0.0
     if DAMPING:
         ct = p[P_DTG + side] * quarter  # critical_damping(kt, m*) with kt ~ sqrt(delta)
@@ -198,13 +201,13 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
             rvx = vel[k, 0] - vel[ring, 0]
             rvy = vel[k, 1] - vel[ring, 1]
             vclose = -(rvx * nx + rvy * ny)
-            fe, fn, qd = normal_law(ov, vclose, 0, p)
+            fe, fn, rd, qd = normal_law(ov, vclose, 0, p)
             fx = fn * nx
             fy = fn * ny
             ft = 0.0
             if FRICTION:
                 vt = -rvx * ny + rvy * nx - spin[k] * rb - omega * rin
-                ft = tangential_law(k, 0, ov, qd, vt, fn, p, xi, dt)
+                ft = tangential_law(k, 0, rd, qd, vt, fn, p, xi, dt)
                 fx += -ft * ny
                 fy += ft * nx
                 spin_acc[k] += -rb * ft
@@ -253,13 +256,13 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                 status[2] = k
                 status[3] = 1
             vclose = vel[k, 0] * nx + vel[k, 1] * ny - r_rate
-            fe, fn, qd = normal_law(ov, vclose, 1, p)
+            fe, fn, rd, qd = normal_law(ov, vclose, 1, p)
             fx = -fn * nx
             fy = -fn * ny
             ft = 0.0
             if FRICTION:
                 vt = -vel[k, 0] * ny + vel[k, 1] * nx + spin[k] * rb
-                ft = tangential_law(k, 1, ov, qd, vt, fn, p, xi, dt)
+                ft = tangential_law(k, 1, rd, qd, vt, fn, p, xi, dt)
                 fx += -ft * ny
                 fy += ft * nx
                 spin_acc[k] += rb * ft
@@ -306,7 +309,7 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                     status[2] = c
                     status[3] = 3
                 vclose = sgn * (vel[c, 0] * nx + vel[c, 1] * ny)
-                fe, fn, qd = normal_law(aov, vclose, 3, p)
+                fe, fn, rd, qd = normal_law(aov, vclose, 3, p)
                 acc[c, 0] -= sgn * fn * nx
                 acc[c, 1] -= sgn * fn * ny
                 if ENERGY:
@@ -333,7 +336,7 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                         status[2] = c
                         status[3] = 2
                     vclose = -((vel[c, 0] - vel[k, 0]) * nx + (vel[c, 1] - vel[k, 1]) * ny)
-                    fe, fn, qd = normal_law(ov, vclose, 2, p)
+                    fe, fn, rd, qd = normal_law(ov, vclose, 2, p)
                     acc[c, 0] += fn * nx
                     acc[c, 1] += fn * ny
                     acc[k, 0] -= fn * nx
@@ -367,7 +370,7 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, fcon, sched, energy, status,
                     status[2] = k
                     status[3] = 4
                 vclose = -((vel[m, 0] - vel[k, 0]) * nx + (vel[m, 1] - vel[k, 1]) * ny)
-                fe, fn, qd = normal_law(ov, vclose, 4, p)
+                fe, fn, rd, qd = normal_law(ov, vclose, 4, p)
                 acc[m, 0] += fn * nx
                 acc[m, 1] += fn * ny
                 acc[k, 0] -= fn * nx
