@@ -33,6 +33,11 @@ class DivergenceError(RuntimeError):
 
 
 PHASES = ("clearance", "load", "spin_up", "steady")
+#: A ball counts as loaded above this inner-raceway force; below it the force is round-off of a
+#: contact at its onset (a Hertz overlap of ~1e-11 m).
+LOADED_FORCE_N = 1e-6
+#: Smallest inner-ring shift for which the load parameter of eq. 15 is reported.
+MIN_SHIFT_M = 1e-9
 _CONTACT_NAMES = {
     0: "inner-raceway overlap",
     1: "outer-raceway overlap",
@@ -198,7 +203,8 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
     delta_r = np.hypot(ix, iy)
     clearance = scene.operating.clearance_m
     with np.errstate(divide="ignore", invalid="ignore"):
-        eps = np.where(delta_r > 0, 0.5 * (1.0 - clearance / delta_r), np.nan)
+        # eq. 15 is undefined for a centred ring: below 1 nm of shift epsilon is NaN, not +-1e19
+        eps = np.where(delta_r > MIN_SHIFT_M, 0.5 * (1.0 - clearance / delta_r), np.nan)
     t1, t2, t3 = phase_times(scene)
     phase = np.select([t <= t1, t <= t2, t <= t3], [0, 1, 2], 3)
     signals = pd.DataFrame(
@@ -214,7 +220,7 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
             "inner_omega_rad_s": sched[:, 2],
             "drive_torque_n_m": sched[:, 3],
             "cage_speed_rad_s": orbit.mean(axis=1),
-            "loaded_balls": (fcon[:, :, 0] > 0.0).sum(axis=1).astype(np.int32),
+            "loaded_balls": (fcon[:, :, 0] > LOADED_FORCE_N).sum(axis=1).astype(np.int32),
             "max_ball_load_n": fcon[:, :, 0].max(axis=1),
         }
     )
