@@ -8,7 +8,6 @@ DEM; each tolerance says where it comes from.
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pandas as pd
@@ -172,29 +171,21 @@ def test_energy_columns_when_asked():
     assert (qs.signals.elastic_j > 0).all() and (qs.signals.kinetic_j > 0).all()
 
 
-def test_tier_agrees_with_dem_within_1_percent_and_is_100x_faster():
+def test_tier_agrees_with_dem_within_1_percent():
     """Acceptance of issue 4 on the seed's scene (F_r = 5820 N, zero clearance, 500 rad/s).
 
-    The DEM's wall time is its whole ``simulate`` call (its own compile/load excluded); the tier's
-    is the best of five calls, all made in this test, so only their ratio matters.
+    The speed-up (>= 100x) is a benchmark figure, not a test: the accuracy-cost study records the
+    tier's and the DEM's CPU time per simulated second (docs/accuracy_cost).
     """
     scene = Scene()
-    simulate_quasistatic(scene)  # first call of the process: loads the compiled solver
-    t0 = time.perf_counter()
     dem = simulate(scene)
-    dem_s = time.perf_counter() - t0 - dem.timings["compile_s"]
-    tier_s = math.inf
-    for _ in range(5):
-        t0 = time.perf_counter()
-        qs = simulate_quasistatic(scene)
-        tier_s = min(tier_s, time.perf_counter() - t0)
+    qs = simulate_quasistatic(scene)
     dem_r = dem.steady().resistance_ohm.mean()
     qs_r = qs.signals.resistance_ohm.mean()
     assert qs_r == pytest.approx(dem_r, rel=0.01)
     assert qs.signals.max_ball_load_n.mean() == pytest.approx(
         dem.steady().max_ball_load_n.mean(), rel=0.02
     )
-    assert dem_s / tier_s >= 100.0, (dem_s, tier_s)
 
 
 def test_simulate_dispatches_to_the_tier():
