@@ -8,7 +8,6 @@ seed eqs 14-15; none is a number this code produced. Each tolerance says where i
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -421,10 +420,7 @@ def test_time_series_of_a_turning_cage():
     n_instants = 1000
     cage_angle = np.linspace(0.0, 3 * 2 * np.pi / 13, n_instants)
     psi = ball_angles_rad(13, cage_angle)
-    start = time.perf_counter()
     state = solve_equilibrium_over_time(psi, SEED, 5820.0, 20e-6, OMEGA_RAD_S)
-    elapsed_s = time.perf_counter() - start
-    assert elapsed_s < 1.0  # takes ~0.03 s; the bound leaves a 30x margin for slow machines
     assert state.inner_force_n.shape == (n_instants, 13)
     assert state.shift_xy_m.shape == (n_instants, 2)
     residual = np.hypot(*residual_n(state, psi, [0.0, -5820.0]).T)
