@@ -210,15 +210,13 @@ def summary(result, out: str | None = None) -> str:
 )
 def bench(out, duration_s, fresh_cache):
     """Cost of the seed scene and of reduced effect sets (us per step, compile apart)."""
-    from signatelec.bench import run_bench
+    from signatelec.bench import format_table, run_bench
 
+    check_writable_file(out, suffixes=(".json",))
     try:
         report = run_bench(duration_s=duration_s, fresh_cache=fresh_cache)
     except SceneError as exc:
         raise InputError(str(exc)) from None
-    check_writable(out)
-    from signatelec.bench import format_table
-
     click.echo(format_table(report))
     tmp = Path(out).with_name(Path(out).name + ".tmp")
     tmp.write_text(json.dumps(report, indent=2))
@@ -271,6 +269,165 @@ def accuracy_cost(out, quick, fresh, quiet):
         )
     except OSError as exc:
         raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+
+
+@cli.command()
+@click.argument("spec_file", metavar="SPEC.toml", type=str)
+@click.option("--out", "out", type=str, required=True, help="Dataset directory (resumable).")
+@click.option(
+    "--workers",
+    type=int,
+    default=None,
+    help="Local worker processes (default: all cores; 0: run in this process).",
+)
+@click.option(
+    "--scheduler",
+    type=str,
+    default=None,
+    help="Dask scheduler address (e.g. tcp://127.0.0.1:8786): run on that cluster instead.",
+)
+@click.option("--quiet", is_flag=True, help="No progress bar or summary.")
+def generate(spec_file, out, workers, scheduler, quiet):
+    """Labelled resistance signatures of a dataset spec: DIR/regime=*/trace-*.parquet.
+
+    A rerun of the same command skips the traces already written (a killed job resumes).
+    """
+    from signatelec.dataset import DatasetDirError, SpecError, load_spec
+    from signatelec.dataset import generate as run_generate
+
+    try:
+        spec = load_spec(spec_file)
+    except SpecError as exc:
+        raise InputError(str(exc)) from None
+    if workers is not None and workers < 0:
+        raise InputError(f"--workers {workers}: must be >= 0 (0: run in this process)")
+    if workers is not None and scheduler:
+        raise InputError(f"--workers {workers}: give --workers or --scheduler, not both")
+    check_writable(out)
+    try:
+        summary_ = run_generate(spec, out, workers=workers, scheduler=scheduler, progress=not quiet)
+    except DatasetDirError as exc:
+        raise InputError(str(exc)) from None
+    except OSError as exc:
+        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+    except Exception as exc:  # a worker died or the cluster failed: what is written stays
+        click.echo(
+            f"signatelec: error: generation stopped ({type(exc).__name__}: {exc}); the traces "
+            "written are kept: rerun the same command to resume",
+            err=True,
+        )
+        sys.exit(1)
+    if not quiet:
+        click.echo(summary_.describe())
+
+
+def check_writable_file(out: str, option: str = "--out", suffixes=None) -> None:
+    """Fail early when a single output file cannot be written (its directory must exist)."""
+    import os
+
+    path = Path(out)
+    if not out.strip() or path.is_dir():
+        raise InputError(f"{option} {out!r}: must name a file")
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise InputError(f"{option} {out!r}: must end in {' or '.join(suffixes)}")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"{option} {out!r}: {str(parent)!r} is not a writable directory")
+
+
+@cli.command()
+@click.argument("trace_file", metavar="TRACE", type=str)
+@click.option("--omega", "omega_rad_s", type=float, required=True, help="Inner-ring speed, rad/s.")
+@click.option(
+    "--model",
+    "model_path",
+    type=str,
+    default=None,
+    help="Model file from `signatelec train` (default: the model built from the shipped "
+    "training table, on first use).",
+)
+@click.option("--out", "out", type=str, default=None, help="Write the estimate: .json or .parquet.")
+@click.option("--time-column", default="time_s", show_default=True, help="Time column (s).")
+@click.option(
+    "--resistance-column",
+    default="resistance_ohm",
+    show_default=True,
+    help="Resistance column (ohm).",
+)
+@click.option("--quiet", is_flag=True, help="No summary.")
+def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_column, quiet):
+    """Estimate F_r, epsilon, clearance and regime from a resistance trace (CSV or Parquet).
+
+    The trace needs at least 5 ball passes; isolated missing samples, small gaps and uneven
+    sampling are repaired, anything else is refused (exit 2).
+    """
+    from signatelec.estimate import ModelError, default_model, format_estimate, load_model
+    from signatelec.estimate import estimate as run_estimate
+    from signatelec.estimate import write_result as write_estimate
+    from signatelec.traces import TraceError, prepare_trace, read_trace
+
+    if out is not None:
+        check_writable_file(out, suffixes=(".json", ".parquet"))
+    try:
+        t, r = read_trace(trace_file, time_column, resistance_column)
+        trace = prepare_trace(t, r, omega_rad_s, source=f"trace {trace_file!r}")
+    except TraceError as exc:
+        raise InputError(str(exc)) from None
+    try:
+        if model_path:
+            model = load_model(model_path)
+        else:
+            model = default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
+    except ModelError as exc:
+        raise InputError(str(exc)) from None
+    result = run_estimate(trace, omega_rad_s, model)
+    if out is not None:
+        try:
+            write_estimate(result, out)
+        except OSError as exc:
+            raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+    if not quiet:
+        click.echo(format_estimate(result))
+        if out is not None:
+            click.echo(f"wrote {out}")
+
+
+@cli.command()
+@click.argument("dataset", metavar="DATASET", type=str)
+@click.option("--out", "out", type=str, required=True, help="Model file to write.")
+@click.option("--quiet", is_flag=True, help="No summary.")
+def train(dataset, out, quiet):
+    """Train the load-state estimator on DATASET and write the model file.
+
+    DATASET: a directory written by `signatelec generate` (each measured trace gives one row of
+    features) or a Parquet feature table with labels (pipelines/load_state.py writes one).
+    """
+    from signatelec.estimate import features_from_dataset, save_model, train_model
+
+    check_writable_file(out)
+    where = f"dataset {dataset!r}"
+    if not Path(dataset).exists():
+        raise InputError(f"{where}: no such file or directory")
+    try:
+        table = features_from_dataset(dataset)
+    except (OSError, ValueError, KeyError) as exc:
+        raise InputError(f"{where}: cannot be read as a dataset or feature table ({exc})") from None
+    if len(table) < 10:
+        raise InputError(f"{where}: {len(table)} usable traces; training needs at least 10")
+    try:
+        model = train_model(table, source=str(dataset))
+    except ValueError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    try:
+        save_model(model, out)
+    except OSError as exc:
+        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+    if not quiet:
+        info = model.info
+        click.echo(
+            f"trained on {info['n_rows']} traces of {info['n_runs']} runs "
+            f"({', '.join(info['targets'])}) in {info['fit_s']:.1f} s; wrote {out}"
+        )
 
 
 def main(argv: list[str] | None = None) -> None:

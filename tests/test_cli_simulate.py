@@ -68,6 +68,7 @@ def test_dt_above_stability_limit_is_refused_with_the_limit(tmp_path, capsys):
 @pytest.mark.slow
 def test_bench_writes_json_with_compile_apart(tmp_path):
     out = tmp_path / "bench.json"
+    out.write_text("{}")  # an earlier report is replaced
     code = run_cli(["bench", "--duration", "0.0075", "--warm-cache", "--out", str(out)])
     assert code == 0
     report = json.loads(out.read_text())
@@ -76,3 +77,9 @@ def test_bench_writes_json_with_compile_apart(tmp_path):
     assert seed["us_per_step"] > 0 and seed["compile_s"] >= 0
     assert seed["electrical_us_per_instant"] > 0
     assert rows["no electrical"]["electrical_us_per_instant"] is None
+
+
+def test_bench_refuses_a_directory_before_running(tmp_path, capsys):
+    code = run_cli(["bench", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--out" in err[0]

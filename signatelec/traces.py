@@ -1,0 +1,244 @@
+"""A measured resistance trace: read it, repair what is safe, refuse what is not (issue 6).
+
+:func:`read_trace` reads a CSV or Parquet table with a time column (s) and a resistance column
+(ohm); :func:`prepare_trace` turns the two columns into a uniformly sampled, finite trace fit for
+:mod:`signatelec.features`, or raises :class:`TraceError` with one line saying what is wrong.
+
+Repaired (each repair is listed in :attr:`Trace.repairs`):
+
+- missing resistance samples (NaN, empty cells) and isolated open-circuit samples (``inf``,
+  <= 0: no ball touching both rings, a contact lost by the meter) in gaps of at most
+  ``MAX_GAP_BALL_PASSES`` of a ball pass, and at most ``MAX_BAD_FRACTION`` of the samples in all:
+  linear interpolation between the neighbours; at the ends: cut off;
+- rows with a missing time: dropped (at most ``MAX_BAD_FRACTION``);
+- non-uniform sampling (jitter above ``JITTER_TOLERANCE`` of the median step, or dropped
+  samples): linear interpolation onto a uniform grid at the median rate (gaps as above).
+
+Refused:
+
+- a time column that does not increase strictly (repeated or backward times);
+- more than ``MAX_BAD_FRACTION`` of the samples missing, or a gap longer than
+  ``MAX_GAP_BALL_PASSES`` of a ball pass (the ripple cannot be filled in);
+- open circuit (infinite or non-positive resistance) beyond ``MAX_OPEN_FRACTION``;
+- a trace shorter than ``MIN_BALL_PASSES`` ball passes at the given omega, or sampled below
+  :func:`signatelec.features.minimum_sample_rate_hz` (the harmonics would alias);
+- omega not a finite speed > 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from signatelec.features import expected_ball_pass_hz, minimum_sample_rate_hz
+
+#: Shortest trace, in ball passes (the harmonics need a few periods to stand out of the noise).
+MIN_BALL_PASSES = 5.0
+#: Largest share of samples that may be missing (NaN, no time) and filled in.
+MAX_BAD_FRACTION = 0.05
+#: Largest share of open-circuit samples (inf or <= 0 ohm) that may be filled in.
+MAX_OPEN_FRACTION = 0.01
+#: Longest gap filled in, in ball passes.
+MAX_GAP_BALL_PASSES = 0.25
+#: Relative jitter of the time step below which the sampling counts as uniform.
+JITTER_TOLERANCE = 1e-3
+
+
+class TraceError(ValueError):
+    """A trace that cannot be used; the message is one line naming the trace and the rule."""
+
+
+@dataclass(frozen=True)
+class Trace:
+    """A uniformly sampled, finite resistance trace (time from 0)."""
+
+    time_s: np.ndarray
+    resistance_ohm: np.ndarray
+    sample_rate_hz: float
+    source: str = "trace"
+    repairs: tuple[str, ...] = field(default=())
+
+    @property
+    def duration_s(self) -> float:
+        return self.resistance_ohm.size / self.sample_rate_hz
+
+
+def read_trace(
+    path: str | Path,
+    time_column: str = "time_s",
+    resistance_column: str = "resistance_ohm",
+) -> tuple[np.ndarray, np.ndarray]:
+    """The time and resistance columns of a CSV (``.csv``, ``.txt``) or Parquet file, as floats
+    (cells that are not numbers become NaN). Raises TraceError naming the file."""
+    import pandas as pd
+
+    p = Path(path)
+    where = f"trace {str(path)!r}"
+    suffix = p.suffix.lower()
+    if not p.is_file():
+        raise TraceError(f"{where}: no such file")
+    try:
+        if suffix in (".parquet", ".pq"):
+            df = pd.read_parquet(p)
+        elif suffix in (".csv", ".txt", ".tsv"):
+            df = pd.read_csv(p, sep=None, engine="python", comment="#")
+        else:
+            raise TraceError(
+                f"{where}: unknown format {suffix or '(none)'!r}; give .csv or .parquet"
+            )
+    except TraceError:
+        raise
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise TraceError(f"{where}: cannot be read as {suffix[1:]} ({text})") from None
+    for column, option in (
+        (time_column, "--time-column"),
+        (resistance_column, "--resistance-column"),
+    ):
+        if column not in df.columns:
+            have = ", ".join(map(str, df.columns[:8])) + (", ..." if len(df.columns) > 8 else "")
+            raise TraceError(
+                f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
+            )
+    t = pd.to_numeric(df[time_column], errors="coerce").to_numpy(dtype=float)
+    r = pd.to_numeric(df[resistance_column], errors="coerce").to_numpy(dtype=float)
+    return t, r
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(start, stop) of each run of True in ``mask``."""
+    if not mask.any():
+        return []
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
+
+
+def prepare_trace(
+    time_s,
+    resistance_ohm,
+    omega_rad_s: float,
+    source: str = "trace",
+    min_ball_passes: float = MIN_BALL_PASSES,
+) -> Trace:
+    """Check, repair and resample a trace for estimation; TraceError when it cannot be used."""
+    where = source
+    if not (isinstance(omega_rad_s, int | float) and math.isfinite(omega_rad_s)):
+        raise TraceError(f"--omega {omega_rad_s!r}: must be a finite speed in rad/s")
+    if omega_rad_s <= 0.0:
+        raise TraceError(
+            f"--omega {omega_rad_s:g}: must be > 0 rad/s (the ball-pass ripple needs a turning "
+            "shaft)"
+        )
+    t = np.asarray(time_s, dtype=float).ravel()
+    r = np.asarray(resistance_ohm, dtype=float).ravel()
+    n0 = r.size
+    if n0 < 4:
+        raise TraceError(f"{where}: {n0} samples; a trace needs at least 4")
+    repairs: list[str] = []
+
+    bad_t = ~np.isfinite(t)
+    if bad_t.any():
+        if bad_t.mean() > MAX_BAD_FRACTION:
+            raise TraceError(
+                f"{where}: time missing or not finite in {bad_t.mean():.1%} of the rows "
+                f"(at most {MAX_BAD_FRACTION:.0%} can be dropped)"
+            )
+        t, r = t[~bad_t], r[~bad_t]
+        repairs.append(f"dropped {int(bad_t.sum())} rows without a time")
+    dt = np.diff(t)
+    if np.any(dt <= 0.0):
+        i = int(np.flatnonzero(dt <= 0.0)[0])
+        raise TraceError(
+            f"{where}: time does not increase at row {i + 1} (t = {t[i]:.9g} s, then "
+            f"{t[i + 1]:.9g} s); sort the trace or remove repeated times"
+        )
+    step = float(np.median(dt))
+    fs = 1.0 / step
+    f_bp = expected_ball_pass_hz(omega_rad_s)
+    max_gap_s = MAX_GAP_BALL_PASSES / f_bp
+
+    is_open = np.isinf(r) | (r <= 0.0)
+    is_nan = np.isnan(r)
+    if is_open.mean() > MAX_OPEN_FRACTION:
+        raise TraceError(
+            f"{where}: open circuit (resistance infinite or <= 0) in {is_open.mean():.1%} of the "
+            f"samples (at most {MAX_OPEN_FRACTION:.0%} can be filled in); no ball touched both "
+            "rings, or the meter lost contact"
+        )
+    bad = is_open | is_nan
+    if bad.mean() > MAX_BAD_FRACTION:
+        raise TraceError(
+            f"{where}: {bad.mean():.1%} of the resistance samples are missing or not finite "
+            f"(at most {MAX_BAD_FRACTION:.0%} can be filled in)"
+        )
+    if bad.all():
+        raise TraceError(f"{where}: no finite resistance sample")
+    # cut missing ends, then check the inner gaps
+    good = np.flatnonzero(~bad)
+    lo, hi = int(good[0]), int(good[-1]) + 1
+    if lo > 0 or hi < r.size:
+        repairs.append(f"cut {lo + r.size - hi} missing samples at the ends")
+        t, r, bad = t[lo:hi], r[lo:hi], bad[lo:hi]
+    for a, b in _runs(bad):
+        gap = t[b] - t[a - 1]
+        if gap > max_gap_s:
+            raise TraceError(
+                f"{where}: {b - a} missing samples from t = {t[a]:.6g} s ({gap * 1e3:.3g} ms): "
+                f"longer than {MAX_GAP_BALL_PASSES:g} of a ball pass ({max_gap_s * 1e3:.3g} ms "
+                f"at {omega_rad_s:g} rad/s); cut the trace there"
+            )
+    if bad.any():
+        n_open = int((is_open[lo:hi]).sum())
+        r = r.copy()
+        r[bad] = np.interp(t[bad], t[~bad], r[~bad])
+        what = (
+            f"{int(bad.sum())} missing samples"
+            if not n_open
+            else (f"{int(bad.sum()) - n_open} missing and {n_open} open-circuit samples")
+        )
+        repairs.append(f"interpolated {what}")
+    # uniform sampling
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    fs = 1.0 / step
+    big = np.flatnonzero(dt > max_gap_s)
+    if big.size:
+        i = int(big[0])
+        raise TraceError(
+            f"{where}: no sample between t = {t[i]:.6g} s and {t[i + 1]:.6g} s: a gap longer "
+            f"than {MAX_GAP_BALL_PASSES:g} of a ball pass ({max_gap_s * 1e3:.3g} ms); cut the "
+            "trace there"
+        )
+    jitter = float(np.max(np.abs(dt - step)) / step)
+    if jitter > JITTER_TOLERANCE:
+        n = int(math.floor((t[-1] - t[0]) * fs + 1e-9)) + 1
+        grid = t[0] + np.arange(n) * step
+        r = np.interp(grid, t, r)
+        t = grid
+        repairs.append(
+            f"resampled to a uniform {fs:.6g} Hz (time steps varied by up to {jitter:.1%})"
+        )
+    duration = r.size / fs
+    passes = duration * f_bp
+    if passes < min_ball_passes:
+        raise TraceError(
+            f"{where}: too short: {duration * 1e3:.3g} ms is {passes:.2g} ball passes at "
+            f"{omega_rad_s:g} rad/s; at least {min_ball_passes:g} "
+            f"({min_ball_passes / f_bp * 1e3:.3g} ms) are needed"
+        )
+    fs_min = minimum_sample_rate_hz(omega_rad_s)
+    if fs < fs_min:
+        raise TraceError(
+            f"{where}: sampled at {fs:.6g} Hz, below the {fs_min:.4g} Hz needed at "
+            f"{omega_rad_s:g} rad/s (the ball-pass harmonics the estimate reads would alias)"
+        )
+    return Trace(
+        time_s=t - t[0],
+        resistance_ohm=r,
+        sample_rate_hz=fs,
+        source=source,
+        repairs=tuple(repairs),
+    )

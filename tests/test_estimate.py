@@ -1,0 +1,380 @@
+"""Load-state estimation (issue 6): estimators, model files, and ``signatelec estimate/train``.
+
+Accuracy on held-out runs is measured by ``pipelines/load_state.py`` (docs/load_state), not
+here; these tests check the contract: scikit-learn conformance, uncertainty that widens where
+labels overlap, model version refusal, and the command line on good and bad traces.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.utils.estimator_checks import parametrize_with_checks
+from threadpoolctl import threadpool_limits
+
+from signatelec import estimate as E
+from signatelec.cli import main
+from signatelec.features import expected_ball_pass_hz
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "datasets" / "example_trace.csv"
+
+
+@pytest.fixture(autouse=True)
+def _one_thread():
+    """Gradient boosting with one thread: two pytest workers on two cores do not fight."""
+    with threadpool_limits(1):
+        yield
+
+
+@parametrize_with_checks(
+    [
+        E.IntervalRegressor(max_iter=20, n_splits=2),
+        E.RegimeClassifier(max_iter=20, n_splits=2),
+        E.LoadStateEstimator(max_iter=20, n_splits=2),
+    ]
+)
+def test_sklearn_contract(estimator, check):
+    check(estimator)
+
+
+# --- uncertainty ---------------------------------------------------------------------------
+
+
+def _overlap_data(n=1200, seed=0):
+    """x < 0.5: class "a" and y = 0 + small noise; x > 0.5: classes a/b at random and y = +-1.
+    The right half is what two load states with one signature look like."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(0, 1, n)
+    right = x > 0.5
+    cls = np.where(right & (rng.uniform(size=n) < 0.5), "b", "a").astype(object)
+    y = np.where(right, rng.choice([-1.0, 1.0], n), 0.0) + rng.normal(0, 0.02, n)
+    X = np.column_stack([x, rng.normal(size=n)])
+    groups = np.arange(n) // 4
+    return X, y, cls, groups
+
+
+def test_split_probabilities_where_signatures_overlap():
+    X, _, cls, groups = _overlap_data()
+    clf = E.RegimeClassifier(max_iter=60, n_splits=3).fit(X, cls, groups=groups)
+    p = clf.predict_proba(np.array([[0.2, 0.0], [0.8, 0.0]]))
+    b = list(clf.classes_).index("b")
+    assert p[0, b] < 0.1  # one state: confident
+    assert 0.3 < p[1, b] < 0.7  # two states, one signature: split, not a guess
+
+
+def test_wide_interval_where_labels_overlap():
+    X, y, _, groups = _overlap_data()
+    reg = E.IntervalRegressor(max_iter=60, n_splits=3).fit(X, y, groups=groups)
+    band = reg.predict_interval(np.array([[0.2, 0.0], [0.8, 0.0]]))
+    assert band[0, 1] - band[0, 0] < 0.3
+    assert band[1, 0] < -0.8 and band[1, 1] > 0.8  # spans both states
+    # out-of-sample coverage near nominal
+    Xt, yt, _, _ = _overlap_data(seed=1)
+    bt = reg.predict_interval(Xt)
+    assert 0.8 < np.mean((yt >= bt[:, 0]) & (yt <= bt[:, 1])) <= 1.0
+
+
+def test_load_state_estimator_table():
+    """Targets named like the dataset's: the load through log F_r + 0.75 log R, a frame out."""
+    rng = np.random.default_rng(2)
+    n = 400
+    load = np.exp(rng.uniform(np.log(2500), np.log(12500), n))
+    eps = rng.uniform(0.3, 0.6, n)
+    level = 0.1 * load ** (-4 / 3) * (1.1 - 0.2 * eps)
+    X = pd.DataFrame({"level_mean_ohm": level, "h1_rel": np.sin(20 * eps), "h2": eps**2})
+    regime = np.where(eps < 0.45, "clearance", np.where(eps > 0.55, "preload", "zero"))
+    y = pd.DataFrame(
+        {"radial_load_n": load, "epsilon": eps, "clearance_m": 1e-5 * (0.5 - eps), "regime": regime}
+    )
+    est = E.LoadStateEstimator(max_iter=80, n_splits=3).fit(X, y, groups=np.arange(n) // 2)
+    out = est.predict_frame(X)
+    assert set(out.columns) >= {
+        "radial_load_n",
+        "radial_load_n_low",
+        "radial_load_n_high",
+        "epsilon_low",
+        "clearance_m_high",
+        "regime",
+        "regime_probability_zero",
+    }
+    assert np.median(np.abs(out["radial_load_n"] / load - 1)) < 0.02
+    assert np.all(out["radial_load_n_low"] <= out["radial_load_n"])
+    probs = out[[f"regime_probability_{r}" for r in E.REGIMES]].to_numpy()
+    np.testing.assert_allclose(probs.sum(axis=1), 1.0)
+    assert isinstance(est.predict(X), pd.DataFrame)
+
+
+def test_flat_forest_matches_scikit_learn():
+    """The numpy walk of the trees gives scikit-learn's predictions (few rows use it)."""
+    X, y, cls, groups = _overlap_data(n=300)
+    reg = E.IntervalRegressor(max_iter=30, n_splits=2).fit(X, y, groups=groups)
+    clf = E.RegimeClassifier(max_iter=30, n_splits=2).fit(X, cls, groups=groups)
+    few = X[: E.SMALL_BATCH]
+    np.testing.assert_allclose(reg.predict(few), reg.median_.predict(few), rtol=1e-12)
+    np.testing.assert_allclose(reg._quantiles(few)[:, 2], reg.upper_.predict(few), rtol=1e-12)
+    np.testing.assert_allclose(
+        clf.forest_.raw(few), clf.model_._raw_predict(few), rtol=1e-12, atol=1e-12
+    )
+
+
+def test_model_features_are_trace_features():
+    from signatelec.features import trace_feature_names
+
+    assert set(E.MODEL_FEATURES) <= set(trace_feature_names())
+    assert len(set(E.MODEL_FEATURES)) == len(E.MODEL_FEATURES)
+
+
+# --- model files ---------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_model(tmp_path_factory):
+    """A quick model from part of the shipped training table, saved to a file."""
+    table = pd.read_parquet(E.DEFAULT_TABLE)
+    table = table[table["run_id"].isin(np.unique(table["run_id"])[::3])]
+    with threadpool_limits(1):
+        model = E.train_model(
+            table, estimator=E.LoadStateEstimator(max_iter=80, n_splits=3), source="test"
+        )
+    path = tmp_path_factory.mktemp("model") / "small.model"
+    E.save_model(model, path)
+    return path
+
+
+def test_model_round_trip(small_model):
+    model = E.load_model(small_model)
+    header = E.read_model_header(small_model)
+    assert header["scikit_learn"] == E._sklearn_version()
+    assert header["feature_set"] == E.FEATURE_SET_VERSION
+    assert model.features == E.model_features()
+
+
+def _with_header(src: Path, dst: Path, **changes) -> Path:
+    raw = src.read_bytes()
+    line, body = raw.split(b"\n", 1)
+    header = json.loads(line)
+    header.update(changes)
+    dst.write_bytes(json.dumps(header).encode() + b"\n" + body)
+    return dst
+
+
+@pytest.mark.parametrize(
+    ("changes", "expected"),
+    [
+        ({"scikit_learn": "0.20.4"}, "scikit-learn 0.20.4"),
+        ({"signatelec": "9.1.0"}, "signatelec 9.1.0"),
+        ({"feature_set": 0}, "feature set 0"),
+    ],
+)
+def test_model_refused_across_versions(small_model, tmp_path, capsys, changes, expected):
+    bad = _with_header(small_model, tmp_path / "old.model", **changes)
+    with pytest.raises(E.ModelError, match="retrain"):
+        E.load_model(bad)
+    code = _run(["estimate", str(EXAMPLE), "--omega", "500", "--model", str(bad)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert expected in err[0] and "retrain" in err[0]
+
+
+def test_not_a_model(tmp_path, capsys):
+    junk = tmp_path / "junk.model"
+    junk.write_bytes(b"\x80\x04not json\n")
+    code = _run(["estimate", str(EXAMPLE), "--omega", "500", "--model", str(junk)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "not a signatelec load-state model" in err[0]
+
+
+# --- the command line ----------------------------------------------------------------------
+
+
+def _run(args: list[str]) -> int:
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def _example() -> pd.DataFrame:
+    return pd.read_csv(EXAMPLE, comment="#")
+
+
+def test_estimate_example_json(small_model, tmp_path, capsys):
+    out = tmp_path / "estimate.json"
+    code = _run(
+        ["estimate", str(EXAMPLE), "--omega", "500", "--model", str(small_model), "--out", str(out)]
+    )
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "radial load F_r" in text and "regime" in text
+    res = json.loads(out.read_text())
+    for key in ("radial_load_n", "epsilon", "clearance_m", "regime"):
+        assert key in res
+    for key in ("radial_load_n", "epsilon", "clearance_m"):
+        assert res[f"{key}_low"] <= res[key] <= res[f"{key}_high"]
+    probs = [res[f"regime_probability_{r}"] for r in E.REGIMES]
+    assert sum(probs) == pytest.approx(1.0)
+    assert res["radial_load_n"] == pytest.approx(7000.0, rel=0.05)  # the example's load
+
+
+def test_estimate_parquet_and_columns(small_model, tmp_path, capsys):
+    df = _example().rename(columns={"time_s": "t", "resistance_ohm": "R"})
+    src = tmp_path / "trace.parquet"
+    df.to_parquet(src)
+    out = tmp_path / "estimate.parquet"
+    args = ["estimate", str(src), "--omega", "500", "--model", str(small_model)]
+    args += ["--out", str(out), "--time-column", "t", "--resistance-column", "R", "--quiet"]
+    assert _run(args) == 0
+    res = pd.read_parquet(out)
+    assert len(res) == 1 and {"radial_load_n", "epsilon_high", "regime"} <= set(res.columns)
+
+
+def test_estimate_repairs(small_model, tmp_path, capsys):
+    """Isolated NaN and open-circuit samples, a short gap and jittered times are repaired."""
+    df = _example()
+    rng = np.random.default_rng(0)
+    r = df["resistance_ohm"].to_numpy().copy()
+    r[[100, 700, 1500]] = np.nan
+    r[900] = np.inf
+    r[1200:1204] = np.nan
+    t = df["time_s"].to_numpy() + rng.uniform(0, 0.3, len(df)) / 20000.0
+    path = tmp_path / "repair.csv"
+    pd.DataFrame({"time_s": t, "resistance_ohm": r}).to_csv(path, index=False)
+    out = tmp_path / "e.json"
+    code = _run(
+        ["estimate", str(path), "--omega", "500", "--model", str(small_model), "--out", str(out)]
+    )
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "interpolated" in text and "resampled" in text
+    res = json.loads(out.read_text())
+    assert res["radial_load_n"] == pytest.approx(7000.0, rel=0.05)
+
+
+def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
+    df = _example()
+    t, r = df["time_s"].to_numpy(), df["resistance_ohm"].to_numpy()
+    n_min = int(5 / expected_ball_pass_hz(500.0) * 20000.0)
+    cases = {}
+
+    def write(name, tt, rr, expected, suffix=".csv"):
+        p = tmp / f"{name}{suffix}"
+        pd.DataFrame({"time_s": tt, "resistance_ohm": rr}).to_csv(p, index=False)
+        cases[name] = (p, expected)
+
+    write("too_short", t[: n_min - 5], r[: n_min - 5], "too short")
+    back = t.copy()
+    back[50] = back[40]
+    write("non_monotone", back, r, "does not increase")
+    nan = r.copy()
+    nan[::2] = np.nan
+    write("mostly_nan", t, nan, "missing or not finite")
+    gap = r.copy()
+    gap[400:460] = np.nan  # 3 ms: 3 % of the samples, but 1.2 ball passes long
+    write("long_gap", t, gap, "longer than")
+    op = r.copy()
+    op[::20] = np.inf
+    write("open_circuit", t, op, "open circuit")
+    write("low_rate", t[::8], r[::8], "below the")
+    p = tmp / "no_column.csv"
+    df.rename(columns={"resistance_ohm": "R"}).to_csv(p, index=False)
+    cases["no_column"] = (p, "no column 'resistance_ohm'")
+    p = tmp / "trace.xlsx"
+    p.write_text("x")
+    cases["unknown_format"] = (p, "unknown format")
+    cases["missing_file"] = (tmp / "nothing.csv", "no such file")
+    return cases
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        "too_short",
+        "non_monotone",
+        "mostly_nan",
+        "long_gap",
+        "open_circuit",
+        "low_rate",
+        "no_column",
+        "unknown_format",
+        "missing_file",
+    ],
+)
+def test_estimate_refuses(small_model, tmp_path, capsys, case):
+    path, expected = _bad_traces(tmp_path)[case]
+    out = tmp_path / "never.json"
+    code = _run(
+        ["estimate", str(path), "--omega", "500", "--model", str(small_model), "--out", str(out)]
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and err[0].startswith("signatelec: error: "), err
+    assert expected in err[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["--omega", "0"], "must be > 0"),
+        (["--omega", "nan"], "finite"),
+        (["--omega", "500", "--out", "x.txt"], "must end in .json or .parquet"),
+    ],
+)
+def test_estimate_bad_options(small_model, capsys, args, expected):
+    code = _run(["estimate", str(EXAMPLE), "--model", str(small_model), *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and expected in err[0]
+
+
+def test_train_and_estimate(tmp_path, capsys):
+    """`signatelec train` on a feature table, and on a directory of measured traces."""
+    table = pd.read_parquet(E.DEFAULT_TABLE)
+    small = table[table["run_id"].isin(np.unique(table["run_id"])[::6])]
+    src = tmp_path / "features.parquet"
+    small.to_parquet(src)
+    model = tmp_path / "m.model"
+    assert _run(["train", str(src), "--out", str(model)]) == 0
+    assert "trained on" in capsys.readouterr().out
+    assert _run(["estimate", str(EXAMPLE), "--omega", "500", "--model", str(model)]) == 0
+    # a file of measured traces, one per row, the layout `signatelec generate` writes
+    df = _example()
+    rows = []
+    for i in range(12):
+        rows.append(
+            {
+                "trace_id": i,
+                "sample_rate_hz": 20000.0,
+                "omega_rad_s": 500.0,
+                "radial_load_n": 7000.0 * (1 + 0.05 * i),
+                "epsilon": 0.45,
+                "clearance_m": 8e-6,
+                "regime": "clearance" if i % 2 else "zero",
+                "resistance_ohm": df["resistance_ohm"].to_numpy() * (1 - 0.05 * i),
+            }
+        )
+    traces = tmp_path / "traces.parquet"
+    pd.DataFrame(rows).to_parquet(traces)
+    assert _run(["train", str(traces), "--out", str(tmp_path / "t.model"), "--quiet"]) == 0
+    assert _run(["train", str(tmp_path / "nothing"), "--out", str(tmp_path / "x.model")]) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_default_model_built_once(tmp_path, monkeypatch, capsys):
+    """Without --model: built from the shipped table on first use, then read from the cache."""
+    monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
+    assert _run(["estimate", str(EXAMPLE), "--omega", "500"]) == 0
+    first = capsys.readouterr()
+    assert "building the default model" in first.err
+    assert list((tmp_path / "cache" / "models").glob("*.model"))
+    assert _run(["estimate", str(EXAMPLE), "--omega", "500"]) == 0
+    second = capsys.readouterr()
+    assert "building" not in second.err
+    assert second.out == first.out
+    shutil.rmtree(tmp_path / "cache")
