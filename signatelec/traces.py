@@ -103,9 +103,21 @@ def read_trace(
             raise TraceError(
                 f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
             )
-    t = pd.to_numeric(df[time_column], errors="coerce").to_numpy(dtype=float)
-    r = pd.to_numeric(df[resistance_column], errors="coerce").to_numpy(dtype=float)
-    return t, r
+    values = []
+    for column in (time_column, resistance_column):
+        raw = df[column]
+        number = pd.to_numeric(raw, errors="coerce")
+        # empty cells and "nan" are missing samples (repaired or refused later); other text is not
+        text = number.isna() & raw.notna()
+        text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
+        if text.any():
+            row = int(np.flatnonzero(text.to_numpy())[0])
+            raise TraceError(
+                f"{where}: column {column!r} holds text at row {row} "
+                f"({str(raw.iloc[row])[:20]!r}); numbers only (empty or nan for a missing sample)"
+            )
+        values.append(number.to_numpy(dtype=float))
+    return values[0], values[1]
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

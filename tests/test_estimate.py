@@ -289,6 +289,21 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
     p.write_text("x")
     cases["unknown_format"] = (p, "unknown format")
     cases["missing_file"] = (tmp / "nothing.csv", "no such file")
+    # issue 7's matrix: empty, one sample, text in a number column, truncated Parquet, a directory
+    write("empty", t[:0], r[:0], "0 samples")
+    write("one_sample", t[:1], r[:1], "1 samples")
+    text = pd.DataFrame({"time_s": t, "resistance_ohm": r.astype(object)})
+    text.loc[700, "resistance_ohm"] = "abc"
+    p = tmp / "text.csv"
+    text.to_csv(p, index=False)
+    cases["text_in_column"] = (p, "resistance_ohm")
+    p = tmp / "truncated.parquet"
+    df.to_parquet(p)
+    p.write_bytes(p.read_bytes()[:200])
+    cases["truncated_parquet"] = (p, "cannot be read as parquet")
+    p = tmp / "folder.csv"
+    p.mkdir()
+    cases["directory"] = (p, "trace")
     return cases
 
 
@@ -304,6 +319,11 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
         "no_column",
         "unknown_format",
         "missing_file",
+        "empty",
+        "one_sample",
+        "text_in_column",
+        "truncated_parquet",
+        "directory",
     ],
 )
 def test_estimate_refuses(small_model, tmp_path, capsys, case):
