@@ -57,7 +57,6 @@ import math
 import os
 import re
 import time
-import tomllib
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
@@ -68,7 +67,7 @@ import numpy as np
 
 from signatelec import __version__
 from signatelec.measurement import MeasurementError, MeasurementModel
-from signatelec.scene import Scene, SceneError
+from signatelec.scene import Scene, SceneError, read_toml
 
 #: Design kinds.
 DESIGN_KINDS = ("grid", "random", "latin_hypercube")
@@ -321,19 +320,7 @@ _SCENE_RESERVED = {
 def load_spec(path: str | Path) -> Spec:
     """Read and validate a dataset spec; :class:`SpecError` names the first bad value."""
     path_s = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SpecError(f"spec {path_s!r}: cannot be read ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise SpecError(
-            f"spec {path_s!r}: is not UTF-8 text; a spec is a UTF-8 TOML file"
-        ) from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"spec {path_s!r}: not valid TOML ({exc})") from None
-    return spec_from_dict(data, path_s)
+    return spec_from_dict(read_toml(path, f"spec {path_s!r}", "a spec", SpecError), path_s)
 
 
 def spec_from_dict(data: dict, path: str = "<spec>") -> Spec:

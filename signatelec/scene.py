@@ -190,20 +190,7 @@ class Scene:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Scene:
-        path = Path(path)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise SceneError(f"scene file {str(path)!r}: cannot be read ({exc.strerror})") from None
-        except UnicodeDecodeError:
-            raise SceneError(
-                f"scene file {str(path)!r}: is not UTF-8 text; a scene is a UTF-8 TOML file"
-            ) from None
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError(f"scene file {str(path)!r}: not valid TOML ({exc})") from None
-        return cls.from_dict(data)
+        return cls.from_dict(read_toml(path, f"scene file {str(path)!r}", "a scene", SceneError))
 
     def with_overrides(self, **changes: Any) -> Scene:
         """Copy with flat overrides such as ``radial_load_n=...`` or ``dt_s=...`` (None skipped)."""
@@ -219,6 +206,20 @@ class Scene:
                 raise SceneError(f"{key} = {value!r}: not a scene parameter")
         updated = {s: replace(getattr(self, s), **v) for s, v in parts.items() if v}
         return replace(self, **updated)
+
+
+def read_toml(path: str | Path, label: str, noun: str, error: type[ValueError]) -> dict:
+    """A UTF-8 TOML file as a dict; on failure ``error`` with one line starting with ``label``."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise error(f"{label}: cannot be read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise error(f"{label}: is not UTF-8 text; {noun} is a UTF-8 TOML file") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{label}: not valid TOML ({exc})") from None
 
 
 def _short(value: Any) -> str:
