@@ -112,20 +112,17 @@ class Setting:
             return apply_fidelity(base, self.preset)
         if self.tier == "quasistatic":
             return base.with_overrides(fidelity="quasistatic")
-        scene = base.with_overrides(
-            integrator=self.integrator, contact_law=self.contact_law, **dict(self.effects)
+        from signatelec.fidelity import apply_numerics
+
+        return apply_numerics(
+            base,
+            cage_mass_scale=self.cage_mass_scale,
+            dt_s=self.dt_s,
+            dt_limit_fraction=self.dt_limit_fraction,
+            integrator=self.integrator,
+            contact_law=self.contact_law,
+            **dict(self.effects),
         )
-        if self.cage_mass_scale != 1.0:
-            from signatelec.fidelity import scale_cage_mass
-
-            scene = scale_cage_mass(scene, self.cage_mass_scale)
-        if self.dt_limit_fraction is not None:
-            from signatelec.dem.stability import stability_limit
-
-            dt = self.dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
-        else:
-            dt = self.dt_s
-        return scene.with_overrides(dt_s=dt)
 
 
 REFERENCE = Setting("reference dt=1e-8", dt_s=REFERENCE_DT_S)

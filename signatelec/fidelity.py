@@ -144,14 +144,30 @@ def apply_fidelity(scene: Scene, name: str) -> Scene:
     if name not in PRESETS:
         raise SceneError(f"fidelity = {name!r}: must be one of {', '.join(FIDELITY_NAMES)}")
     preset = PRESETS[name]
-    scene = scene.with_overrides(
-        fidelity=preset.fidelity, integrator=preset.integrator, **dict(preset.effects)
+    return apply_numerics(
+        scene,
+        cage_mass_scale=preset.cage_mass_scale,
+        dt_s=preset.dt_s,
+        dt_limit_fraction=preset.dt_limit_fraction,
+        fidelity=preset.fidelity,
+        integrator=preset.integrator,
+        **dict(preset.effects),
     )
-    scene = scale_cage_mass(scene, preset.cage_mass_scale)
-    if preset.dt_limit_fraction is not None:
+
+
+def apply_numerics(
+    scene: Scene,
+    *,
+    cage_mass_scale: float = 1.0,
+    dt_s: float | None = None,
+    dt_limit_fraction: float | None = None,
+    **overrides,
+) -> Scene:
+    """``overrides`` (Scene.with_overrides keys), then the cage-mass scaling, then the time step:
+    ``dt_s``, or ``dt_limit_fraction`` of the stability limit the scene then has (None: keep)."""
+    scene = scale_cage_mass(scene.with_overrides(**overrides), cage_mass_scale)
+    if dt_limit_fraction is not None:
         from signatelec.dem.stability import stability_limit
 
-        dt = preset.dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
-    else:
-        dt = preset.dt_s
-    return scene.with_overrides(dt_s=dt)
+        dt_s = dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
+    return scene.with_overrides(dt_s=dt_s)
