@@ -42,3 +42,20 @@ def _run(scene: Scene):
 def run_scene():
     """Simulate a scene once per test session (scenes are frozen, hence hashable)."""
     return _run
+
+
+def solve_network(ball, node, area, direction=None, current_a=0.1):
+    """signatelec.electrical.network_resistance for the seed bearing's balls (gamma, V_b)."""
+    from signatelec.bearing import Bearing
+    from signatelec.electrical import network_resistance
+
+    b = Bearing()
+    return network_resistance(
+        ball,
+        node,
+        area,
+        direction,
+        conductivity_s_m=b.electrical_conductivity_s_m,
+        ball_volume_m3=b.ball_volume_m3,
+        injected_current_a=current_a,
+    )

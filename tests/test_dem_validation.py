@@ -22,11 +22,9 @@ SETTLE_S = 2e-3  # after the spin-up, let the transient damp before comparing
 
 
 def steady_arrays(result):
-    sc = result.scene
-    z = sc.bearing.n_balls
-    t0 = sc.setup_time_s + SETTLE_S
-    sig = result.signals[result.signals.time_s > t0]
-    balls = result.balls[result.balls.time_s > t0]
+    z = result.scene.bearing.n_balls
+    sig = result.steady(settle_s=SETTLE_S)
+    balls = result.steady("balls", settle_s=SETTLE_S)
     angle = balls.angle_rad.to_numpy().reshape(-1, z)
     inner = balls.inner_force_n.to_numpy().reshape(-1, z)
     return sig, angle, inner

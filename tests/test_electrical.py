@@ -10,6 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import solve_network
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
@@ -24,7 +25,6 @@ from signatelec.electrical import (
     bearing_contact_area,
     bearing_electrics,
     contact_ellipse,
-    network_resistance,
 )
 
 BEARING = Bearing()
@@ -40,18 +40,6 @@ def _log_slope(x, y):
 def _conductance(area_i, area_j, cos_theta=-1.0):
     return ball_conductance(
         area_i, area_j, cos_theta, conductivity_s_m=GAMMA, ball_volume_m3=V_BALL
-    )
-
-
-def _network(ball, node, area, direction=None, current_a=0.1):
-    return network_resistance(
-        ball,
-        node,
-        area,
-        direction,
-        conductivity_s_m=GAMMA,
-        ball_volume_m3=V_BALL,
-        injected_current_a=current_a,
     )
 
 
@@ -289,7 +277,7 @@ def test_unloaded_instant_is_infinite_resistance_without_nan_warning():
         assert np.all(np.isnan(res.potential_v[[0, 2]]))
         assert np.all(res.max_current_density_a_m2[[0, 2]] == 0.0)
         assert not np.any(np.isnan(res.resistance_ohm))
-    empty = _network([], [], [])
+    empty = solve_network([], [], [])
     assert empty.resistance_ohm == np.inf
 
 
@@ -320,7 +308,7 @@ def test_fast_path_equals_sparse_solver():
 
     # And against the general network_resistance, one instant at a time.
     for t in range(n):
-        sol = _network(*_bearing_contact_list(inner[t], outer[t]))
+        sol = solve_network(*_bearing_contact_list(inner[t], outer[t]))
         np.testing.assert_allclose(sol.resistance_ohm, fast.resistance_ohm[t], rtol=rtol)
         np.testing.assert_allclose(sol.ball_current_a, fast.current_a[t], rtol=rtol)
         np.testing.assert_allclose(sol.ball_potential_v, fast.potential_v[t], rtol=rtol)
@@ -399,7 +387,7 @@ def test_kirchhoff_current_conservation_on_a_random_network():
     angle = rng.uniform(0, 2 * np.pi, ball.size)
     direction = np.column_stack([np.cos(angle), np.sin(angle)])
     current = 0.25
-    sol = _network(ball, node, area, direction, current_a=current)
+    sol = solve_network(ball, node, area, direction, current_a=current)
     assert 0 < sol.resistance_ohm < np.inf
 
     # Net current leaving each node into the balls: +I at the outer ring (injected), -I at the
@@ -463,7 +451,7 @@ def test_network_properties(state):
     inner, outer, ball_ball = state
     current = 0.1
     contacts = _bearing_contact_list(inner, outer, ball_ball)
-    sol = _network(*contacts, current_a=current)
+    sol = solve_network(*contacts, current_a=current)
     assert sol.resistance_ohm > 0
     into_balls = np.bincount(contacts[1], sol.contact_current_a, minlength=2)
     if np.isfinite(sol.resistance_ohm):
@@ -486,7 +474,7 @@ def test_network_properties(state):
         inner2, outer2 = inner.copy(), outer.copy()
         # Forces only grow, so no existing contact shrinks and no conductance decreases.
         inner2[k], outer2[k] = max(inner[k], 1000.0), max(outer[k], 1000.0)
-        more = _network(*_bearing_contact_list(inner2, outer2, ball_ball), current_a=current)
+        more = solve_network(*_bearing_contact_list(inner2, outer2, ball_ball), current_a=current)
         assert more.resistance_ohm <= sol.resistance_ohm * (1 + 1e-12)
         assert np.isfinite(more.resistance_ohm)
 

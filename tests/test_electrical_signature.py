@@ -39,11 +39,9 @@ ELECTRICAL_COLUMNS = {
 
 def steady(result, settle_s: float = SETTLE_S):
     """Steady signals and the (instants, balls) arrays of angle and ball positions."""
-    sc = result.scene
-    z = sc.bearing.n_balls
-    t0 = sc.setup_time_s + settle_s
-    sig = result.signals[result.signals.time_s > t0]
-    balls = result.balls[result.balls.time_s > t0]
+    z = result.scene.bearing.n_balls
+    sig = result.steady(settle_s=settle_s)
+    balls = result.steady("balls", settle_s=settle_s)
     angle = balls.angle_rad.to_numpy().reshape(-1, z)
     assert len(sig) == angle.shape[0] > 100
     return sig, angle

@@ -39,7 +39,7 @@ from functools import cache
 
 import numpy as np
 import pytest
-from conftest import CR_N, make_scene
+from conftest import CR_N, make_scene, solve_network
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -50,7 +50,7 @@ from signatelec.cli import main
 from signatelec.dem import kernel_template as K
 from signatelec.dem.simulate import DivergenceError, simulate
 from signatelec.dem.stability import StabilityLimit, scene_law, stability_limit
-from signatelec.electrical import OUTER_RING_NODE, ball_conductance, network_resistance
+from signatelec.electrical import OUTER_RING_NODE, ball_conductance
 from signatelec.quasistatic import ball_angles_rad, solve_equilibrium
 from signatelec.scene import SceneError
 
@@ -515,24 +515,12 @@ def _networks(draw):
     return np.array(ball), np.array(node), np.array(area), direction
 
 
-def _solve(ball, node, area, direction, current=0.1):
-    return network_resistance(
-        ball,
-        node,
-        area,
-        direction,
-        conductivity_s_m=GAMMA,
-        ball_volume_m3=V_BALL,
-        injected_current_a=current,
-    )
-
-
 @settings(max_examples=150, deadline=None)
 @given(_networks(), st.integers(0, 5), st.integers(0, 5), st.floats(1e-8, 3e-6))
 def test_network_conserves_current_and_power_and_obeys_rayleigh(net, a, b, new_area):
     ball, node, area, direction = net
     current = 0.1
-    sol = _solve(ball, node, area, direction, current)
+    sol = solve_network(ball, node, area, direction, current)
     assert sol.resistance_ohm > 0.0 and not math.isnan(sol.resistance_ohm)
     n_nodes = max(int(node.max()) + 1, 2)
     # Kirchhoff: zero net current into every ball, +I / -I / 0 at outer ring / inner ring /
@@ -567,7 +555,7 @@ def test_network_conserves_current_and_power_and_obeys_rayleigh(net, a, b, new_a
     if a == b:
         a, b = 0, 1
     k = int(ball.max()) + 1
-    more = _solve(
+    more = solve_network(
         np.append(ball, [k, k]),
         np.append(node, [a, b]),
         np.append(area, [new_area, new_area]),

@@ -166,10 +166,10 @@ class SimulationResult:
     timings: dict = field(default_factory=dict)
     stability: StabilityLimit | None = None
 
-    def steady(self, table: str = "signals") -> pd.DataFrame:
-        """Rows of the steady-running phase."""
+    def steady(self, table: str = "signals", settle_s: float = 0.0) -> pd.DataFrame:
+        """Rows of the steady-running phase, from ``settle_s`` after the set-up ends."""
         df = getattr(self, table)
-        return df[df["time_s"] > self.scene.setup_time_s + 1e-12]
+        return df[df["time_s"] > self.scene.setup_time_s + settle_s + 1e-12]
 
     def write(self, out_dir) -> None:
         from signatelec.io import write_result
