@@ -42,6 +42,7 @@ def test_outer_contact_force_equals_contact_functions(law):
         st.acc,
         st.spin_acc,
         st.xi,
+        st.roots,
         st.fcon,
         st.sched,
         st.energy,
@@ -77,3 +78,63 @@ def test_hertz_critical_damping_closed_form():
     c, m = 1.2e10, 8.2e-3
     direct = contact.critical_damping(contact.hertz_normal_stiffness(overlap, c), m)
     np.testing.assert_allclose(contact.hertz_critical_damping(overlap, c, m), direct, rtol=1e-13)
+
+
+def test_warm_started_roots_equal_cold_ones():
+    """The kernel's roots warm-started from the steps before (kernel_template.rsqrt_warm,
+    rquart_warm) give the forces a cold start gives, to rounding, on every contact type.
+
+    Rounding here: a few ulp of the centre distance d, which the overlap reach - d amplifies by
+    d / delta ~ 1e4, so forces agree to 1e-10 relative (they differ by ~3e-12)."""
+    scene = make_scene(effects={"electrical": False})
+    kern = get_kernel(KernelFlags.from_scene(scene))
+    p = kernel_parameters(scene)
+    warm = KernelState.initial(scene)
+    b = scene.bearing
+    rng = np.random.default_rng(7)
+    # squeeze every contact: balls 3 um onto the outer race, the ring 10 um down onto the lower
+    # balls, cage balls 1-3 um off the pitch circle and turned 10 um onto ball j (even j) or
+    # ball j + 1 (odd j), across their 4.5 um gaps
+    z = b.n_balls
+    rp = b.pitch_radius_m
+    warm.pos[:z] *= 1.0 + 3e-6 / rp
+    warm.pos[2 * z] = (0.0, -10e-6)
+    turn = np.where(np.arange(z) % 2 == 0, -1.0, 1.0) * 10e-6 / rp
+    c, s_ = np.cos(turn), np.sin(turn)
+    x, y = warm.pos[z : 2 * z].T.copy()
+    radial = 1.0 + rng.uniform(1e-6, 3e-6, z) * rng.choice([-1.0, 1.0], z) / rp
+    warm.pos[z : 2 * z, 0] = (c * x - s_ * y) * radial
+    warm.pos[z : 2 * z, 1] = (s_ * x + c * y) * radial
+    warm.vel[:] = rng.normal(0.0, 1e-3, warm.vel.shape)
+
+    def evaluate(state):
+        kern.forces(
+            1.0,
+            p,
+            state.pos,
+            state.vel,
+            state.spin,
+            state.acc,
+            state.spin_acc,
+            state.xi,
+            state.roots,
+            state.fcon,
+            state.sched,
+            state.energy,
+            state.status,
+            0,
+        )
+        return state.fcon.copy(), state.acc.copy()
+
+    for step in range(4):
+        # a smooth motion with steps of 1e-10 m to 1e-8 m, like dt = 1e-7 s at mm/s to cm/s
+        warm.pos += warm.vel * 1e-7 * (1.0 + step) + rng.normal(0.0, 1e-11, warm.pos.shape)
+        fcon_warm, acc_warm = evaluate(warm)
+        cold = KernelState.initial(scene)
+        cold.pos[:], cold.vel[:] = warm.pos, warm.vel
+        fcon_cold, acc_cold = evaluate(cold)
+        touching = np.count_nonzero(fcon_cold, axis=0)
+        assert touching[0] >= 3 and touching[1] == z and touching[4] + touching[5] >= z
+        np.testing.assert_allclose(fcon_warm, fcon_cold, rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(acc_warm, acc_cold, rtol=1e-10, atol=1e-6)
+    assert np.any(warm.roots[:, 10:] > 0.0)  # the extrapolation had a step before

@@ -110,6 +110,7 @@ class KernelState:
     spin: np.ndarray
     spin_acc: np.ndarray
     xi: np.ndarray
+    roots: np.ndarray
     fcon: np.ndarray
     sched: np.ndarray
     energy: np.ndarray
@@ -126,6 +127,7 @@ class KernelState:
             self.spin,
             self.spin_acc,
             self.xi,
+            self.roots,
             self.fcon,
             self.sched,
             self.energy,
@@ -148,6 +150,7 @@ class KernelState:
             spin=np.zeros(z),
             spin_acc=np.zeros(z),
             xi=np.zeros((z, 4)),
+            roots=np.zeros((z, 20)),  # warm-start cache of kernel_template.rsqrt_warm
             fcon=np.zeros((z, 6)),
             sched=np.zeros(4),
             energy=np.zeros(4),
