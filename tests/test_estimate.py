@@ -223,6 +223,35 @@ def test_estimate_example_json(small_model, tmp_path, capsys):
     assert res["radial_load_n"] == pytest.approx(7000.0, rel=0.05)  # the example's load
 
 
+@pytest.mark.parametrize(
+    ("probabilities", "confident"), [((0.9, 0.06, 0.04), True), ((0.52, 0.08, 0.40), False)]
+)
+def test_uncertain_regime_is_said(small_model, monkeypatch, probabilities, confident):
+    """Below CONFIDENT_PROBABILITY the estimate flags the regime and names the rivals."""
+    from signatelec.traces import prepare_trace, read_trace
+
+    model = E.load_model(small_model)
+    predict_one = model.predict_one
+
+    def split(features):
+        out = predict_one(features)
+        for regime, q in zip(E.REGIMES, probabilities, strict=True):
+            out[f"regime_probability_{regime}"] = q
+        out["regime"] = E.REGIMES[int(np.argmax(probabilities))]
+        return out
+
+    monkeypatch.setattr(model, "predict_one", split)
+    trace = prepare_trace(*read_trace(EXAMPLE), 500.0)
+    result = E.estimate(trace, 500.0, model)
+    text = E.format_estimate(result)
+    assert result["regime_confident"] is confident
+    if confident:
+        assert "uncertain" not in text
+    else:
+        assert "regime uncertain: preload or clearance" in text and ", uncertain)" in text
+        assert "zero" not in result["notes"][0]
+
+
 def test_estimate_parquet_and_columns(small_model, tmp_path, capsys):
     df = _example().rename(columns={"time_s": "t", "resistance_ohm": "R"})
     src = tmp_path / "trace.parquet"
