@@ -267,20 +267,20 @@ def metrics(p: pd.DataFrame) -> dict:
     fr, fr_hat = p["radial_load_n"], p["pred_radial_load_n"]
     proba = np.stack([p[f"pred_regime_probability_{r}"] for r in REGIMES], axis=1)
     truth = p["regime"].map({r: i for i, r in enumerate(REGIMES)}).to_numpy()
+    right = (p["pred_regime"] == p["regime"]).to_numpy()
+    confident = proba.max(axis=1) >= CONFIDENT_PROBABILITY
     out = {
         "n": len(p),
         "n_runs": int(p["run_id"].nunique()),
         "fr_mape_pct": float(100 * np.mean(np.abs(fr_hat / fr - 1))),
         "epsilon_mae": float(np.mean(np.abs(p["pred_epsilon"] - p["epsilon"]))),
         "clearance_mae_um": float(1e6 * np.mean(np.abs(p["pred_clearance_m"] - p["clearance_m"]))),
-        "regime_accuracy": float(np.mean(p["pred_regime"] == p["regime"])),
+        "regime_accuracy": float(np.mean(right)),
         # calls at or above CONFIDENT_PROBABILITY: their share and accuracy
-        "regime_confident_share": float(np.mean(proba.max(axis=1) >= CONFIDENT_PROBABILITY)),
-        "regime_confident_accuracy": float(
-            np.mean((p["pred_regime"] == p["regime"])[proba.max(axis=1) >= CONFIDENT_PROBABILITY])
-        )
-        if np.any(proba.max(axis=1) >= CONFIDENT_PROBABILITY)
-        else float("nan"),
+        "regime_confident_share": float(np.mean(confident)),
+        "regime_confident_accuracy": float(np.mean(right[confident]))
+        if confident.any()
+        else math.nan,
         "regime_log_loss": float(
             -np.mean(np.log(np.clip(proba[np.arange(len(p)), truth], 1e-12, 1)))
         ),
