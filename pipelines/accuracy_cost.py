@@ -9,12 +9,12 @@ Default OUT_DIR: docs/accuracy_cost. Five scenes (0.1 and 0.4 C_r at zero cleara
 with a 10 um preload, zero clearance and a 40 um clearance), each simulated by a reference
 (velocity Verlet, dt = 1e-8 s, every seed effect) and by every setting of the ladder: the
 quasi-static tier, dt from 2e-8 s to the stability limit, symplectic Euler, the linear and
-Harris laws, no gravity, cage-mass scaling and the presets of signatelec.fidelity. Writes
+Harris laws, no gravity, cage-mass scaling and the presets of signatelec.engines.fidelity. Writes
 ``accuracy_cost.parquet`` (one row per scene and setting), ``accuracy_cost.md`` (tables) and
 ``accuracy_cost.png`` (Pareto plot). About 1.5 minutes on one core (130 cases); ``--quick``
 (one scene, three settings, three ball-pass periods) about 5 s. Finished cases are cached in
 OUT_DIR/.cache, so an interrupted run resumes (``--fresh`` starts over). The work is done by
-:mod:`signatelec.accuracy_cost`, so the command works from an installed package too.
+:mod:`signatelec.studies.accuracy_cost`, so the command works from an installed package too.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from signatelec.accuracy_cost import run_study
+from signatelec.studies.accuracy_cost import run_study
 
 DEFAULT_OUT = Path(__file__).resolve().parents[1] / "docs" / "accuracy_cost"
 

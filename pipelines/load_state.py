@@ -11,12 +11,13 @@ Steps (each writes into OUT, default ``out/load_state``; generation resumes wher
    ``signatelec generate``; ~0.25 s of CPU per run) and 90 held-out test runs of the same
    design at the paper's fidelity (velocity Verlet, dt = 1e-7 s; ~2.5 s per run);
 2. **features**: each run is cut into windows (12.5, 25, 50, 100, 200 ms; at least 5 ball
-   passes), each measured through :class:`signatelec.measurement.MeasurementModel` with its own
+   passes), each measured through :class:`signatelec.measurement.model.MeasurementModel` with its
+   own
    draw (white noise 0.05-1 % log-uniform, random-walk drift up to 0.1 %, offset +-20 uOhm,
    0.1 uOhm quantisation) -> ``features_train.parquet``; the acceptance condition (0.2 % noise,
    50 ms, 20 kHz, drift 0.05 %, same offset and quantisation) and a noise x length grid ->
    ``features_eval.parquet`` (training runs), ``features_test.parquet`` (test runs);
-3. **train**: :class:`signatelec.estimate.LoadStateEstimator` on every training window
+3. **train**: :class:`signatelec.estimation.estimate.LoadStateEstimator` on every training window
    (``load_state.model``); cross-validation grouped by run (GroupKFold, 5 folds) predicts every
    evaluation window from a model that never saw its run -> ``predictions_cv.parquet``; the
    final model predicts the test runs -> ``predictions_test.parquet``;
@@ -47,7 +48,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from signatelec.estimate import (
+from signatelec.estimation.estimate import (
     CLASS_TARGET,
     CONFIDENT_PROBABILITY,
     REGIMES,
@@ -57,9 +58,10 @@ from signatelec.estimate import (
     save_model,
     train_model,
 )
-from signatelec.features import expected_ball_pass_hz, trace_features
-from signatelec.measurement import MeasurementDraw, MeasurementModel
-from signatelec.traces import MIN_BALL_PASSES
+from signatelec.estimation.features import trace_features
+from signatelec.measurement.model import MeasurementDraw, MeasurementModel
+from signatelec.measurement.traces import MIN_BALL_PASSES
+from signatelec.physics.kinematics import expected_ball_pass_hz
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "datasets" / "load_state.toml"
@@ -90,7 +92,7 @@ def log(msg: str) -> None:
 
 
 def _spec(quick: bool, test: bool):
-    from signatelec.dataset import spec_from_dict
+    from signatelec.data.dataset import spec_from_dict
 
     data = tomllib.loads(SPEC.read_text())
     if test:
@@ -108,7 +110,7 @@ def _spec(quick: bool, test: bool):
 
 
 def generate(out: Path, quick: bool) -> tuple[Path, Path]:
-    from signatelec.dataset import generate as run
+    from signatelec.data.dataset import generate as run
 
     dirs = []
     for test in (False, True):
@@ -125,7 +127,7 @@ def generate(out: Path, quick: bool) -> tuple[Path, Path]:
 
 
 def load_runs(path: Path) -> pd.DataFrame:
-    from signatelec.dataset import read_dataset
+    from signatelec.data.dataset import read_dataset
 
     runs = read_dataset(path)
     failed = runs[runs["status"] != "ok"]
@@ -532,14 +534,14 @@ def plot_report(cv: pd.DataFrame, table: pd.DataFrame, path: Path) -> None:
 
 def benchmark(model: LoadStateModel, repeats: int = 20) -> dict:
     """Time to estimate a 1 s trace at 50 kHz (features + model), model loaded."""
-    from signatelec.estimate import estimate
-    from signatelec.scene import Scene
-    from signatelec.traces import prepare_trace
+    from signatelec.config.scene import Scene
+    from signatelec.estimation.estimate import estimate
+    from signatelec.measurement.traces import prepare_trace
 
     sc = Scene().with_overrides(
         duration_s=0.007 + 1.0, sample_rate_hz=50000.0, fidelity="quasistatic"
     )
-    from signatelec.dem.simulate import simulate
+    from signatelec.engines.simulate import simulate
 
     st = simulate(sc).steady()
     r = st["resistance_ohm"].to_numpy()[:50000]
@@ -719,8 +721,8 @@ def ship_table(train: pd.DataFrame) -> pd.DataFrame:
 def write_example_trace(path: Path) -> None:
     """A measured-like trace: paper-fidelity DEM, F_r = 7000 N, clearance +8 um, 500 rad/s,
     0.1 s at 20 kHz, 0.2 % noise, 0.05 % drift, +12 uOhm offset, 0.1 uOhm steps."""
-    from signatelec.dataset import generate as run
-    from signatelec.dataset import read_dataset, spec_from_dict
+    from signatelec.data.dataset import generate as run
+    from signatelec.data.dataset import read_dataset, spec_from_dict
 
     spec = spec_from_dict(
         {

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import click
 
-from signatelec.fidelity import FIDELITY_NAMES
+from signatelec.config.scene import Scene, SceneError
+from signatelec.engines.fidelity import FIDELITY_NAMES
 from signatelec.io import OutputError
-from signatelec.scene import Scene, SceneError
 
 EXIT_INPUT = 2
 EXIT_DIVERGED = 3
@@ -113,8 +113,8 @@ def simulate(
     scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt_s, fidelity, out, quiet
 ):
     """Simulate a scene; write DIR/balls.parquet and DIR/signals.parquet."""
-    from signatelec.dem.simulate import DivergenceError
-    from signatelec.dem.simulate import simulate as run
+    from signatelec.engines.results import DivergenceError
+    from signatelec.engines.simulate import simulate as run
 
     overrides = {
         "radial_load_n": radial_load_n,
@@ -125,7 +125,7 @@ def simulate(
     }
     scene = load_scene(scene_file, **overrides)
     if fidelity is not None:
-        from signatelec.fidelity import apply_fidelity
+        from signatelec.engines.fidelity import apply_fidelity
 
         try:
             scene = apply_fidelity(scene, fidelity)
@@ -210,7 +210,7 @@ def summary(result, out: str | None = None) -> str:
 )
 def bench(out, duration_s, fresh_cache):
     """Cost of the seed scene and of reduced effect sets (us per step, compile apart)."""
-    from signatelec.bench import format_table, run_bench
+    from signatelec.studies.bench import format_table, run_bench
 
     check_writable_file(out, suffixes=(".json",))
     try:
@@ -230,8 +230,8 @@ def bench(out, duration_s, fresh_cache):
 @click.option("--quiet", is_flag=True, help="No progress bar or file list.")
 def figures(out, quick, quiet):
     """Regenerate the seed's figures 6-11: DIR/figure_6_9.png, figure_7_10.png, figure_8_11.png."""
-    from signatelec.dem.simulate import DivergenceError
-    from signatelec.plots import paper_figures
+    from signatelec.engines.results import DivergenceError
+    from signatelec.studies.paper_figures import paper_figures
 
     check_writable(out)
     try:
@@ -260,7 +260,7 @@ def study() -> None:
 @click.option("--quiet", is_flag=True, help="No progress bar or file list.")
 def accuracy_cost(out, quick, fresh, quiet):
     """Fidelity ladder against a dt = 1e-8 s reference: DIR/accuracy_cost.{parquet,md,png}."""
-    from signatelec.accuracy_cost import run_study
+    from signatelec.studies.accuracy_cost import run_study
 
     check_writable(out)
     try:
@@ -292,8 +292,8 @@ def generate(spec_file, out, workers, scheduler, quiet):
 
     A rerun of the same command skips the traces already written (a killed job resumes).
     """
-    from signatelec.dataset import DatasetDirError, SpecError, load_spec
-    from signatelec.dataset import generate as run_generate
+    from signatelec.data.dataset import DatasetDirError, SpecError, load_spec
+    from signatelec.data.dataset import generate as run_generate
 
     try:
         spec = load_spec(spec_file)
@@ -361,10 +361,15 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
     The trace needs at least 5 ball passes; isolated missing samples, small gaps and uneven
     sampling are repaired, anything else is refused (exit 2).
     """
-    from signatelec.estimate import ModelError, default_model, format_estimate, load_model
-    from signatelec.estimate import estimate as run_estimate
-    from signatelec.estimate import write_result as write_estimate
-    from signatelec.traces import TraceError, prepare_trace, read_trace
+    from signatelec.estimation.estimate import (
+        ModelError,
+        default_model,
+        format_estimate,
+        load_model,
+    )
+    from signatelec.estimation.estimate import estimate as run_estimate
+    from signatelec.estimation.estimate import write_result as write_estimate
+    from signatelec.measurement.traces import TraceError, prepare_trace, read_trace
 
     if out is not None:
         check_writable_file(out, suffixes=(".json", ".parquet"))
@@ -402,7 +407,7 @@ def train(dataset, out, quiet):
     DATASET: a directory written by `signatelec generate` (each measured trace gives one row of
     features) or a Parquet feature table with labels (pipelines/load_state.py writes one).
     """
-    from signatelec.estimate import features_from_dataset, save_model, train_model
+    from signatelec.estimation.estimate import features_from_dataset, save_model, train_model
 
     check_writable_file(out)
     where = f"dataset {dataset!r}"

@@ -18,7 +18,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from signatelec import __version__
+from signatelec._version import __version__
 
 METADATA_KEY = b"signatelec"
 

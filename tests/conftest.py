@@ -7,7 +7,7 @@ from functools import cache
 
 import pytest
 
-from signatelec.scene import Effects, Numerics, Operating, Procedure, Scene
+from signatelec.config.scene import Effects, Numerics, Operating, Procedure, Scene
 
 CR_N = 29100.0  # NSK dynamic load rating of the 6208 (seed 2.2.2)
 
@@ -33,7 +33,7 @@ def make_scene(
 
 @cache
 def _run(scene: Scene):
-    from signatelec.dem.simulate import simulate
+    from signatelec.engines.simulate import simulate
 
     return simulate(scene)
 
@@ -45,9 +45,10 @@ def run_scene():
 
 
 def solve_network(ball, node, area, direction=None, current_a=0.1):
-    """signatelec.electrical.network_resistance for the seed bearing's balls (gamma, V_b)."""
-    from signatelec.bearing import Bearing
-    from signatelec.electrical import network_resistance
+    """signatelec.physics.electrical.network_resistance for the seed bearing's balls (gamma,
+    V_b)."""
+    from signatelec.config.bearing import Bearing
+    from signatelec.physics.electrical import network_resistance
 
     b = Bearing()
     return network_resistance(

@@ -1,4 +1,4 @@
-"""The accuracy-cost study (signatelec.accuracy_cost, pipelines/accuracy_cost.py)."""
+"""The accuracy-cost study (signatelec.studies.accuracy_cost, pipelines/accuracy_cost.py)."""
 
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from signatelec.accuracy_cost import (
+from signatelec.cli import main as cli_main
+from signatelec.studies.accuracy_cost import (
     PAPER_SETTING,
     ball_pass_amplitude,
     pareto_front,
     rms_difference,
 )
-from signatelec.cli import main as cli_main
 
 PIPELINE = Path(__file__).resolve().parents[1] / "pipelines" / "accuracy_cost.py"
 

@@ -8,9 +8,9 @@ import pandas as pd
 import pytest
 
 from signatelec.cli import main
-from signatelec.dem.stability import stability_limit
+from signatelec.config.scene import Scene
+from signatelec.engines.dem.stability import stability_limit
 from signatelec.io import read_metadata
-from signatelec.scene import Scene
 
 
 def run_cli(argv):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from conftest import make_scene
 
-from signatelec.dem.simulate import simulate
+from signatelec.engines.simulate import simulate
 
 DTS = (1.2e-7, 6e-8, 3e-8, 1.5e-8)
 REFERENCE_DT = 3.75e-9

@@ -20,7 +20,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from signatelec.cli import main
-from signatelec.dataset import (
+from signatelec.config.scene import Scene
+from signatelec.data.dataset import (
     LHS_KEY,
     MANIFEST_FILE,
     STATUS_FAILED,
@@ -38,8 +39,7 @@ from signatelec.dataset import (
     trace_seed_sequence,
 )
 from signatelec.io import read_metadata
-from signatelec.measurement import MeasurementModel
-from signatelec.scene import Scene
+from signatelec.measurement.model import MeasurementModel
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -341,7 +341,7 @@ def test_noise_drift_offset_and_quantisation():
     u=st.floats(0, 1, exclude_max=True),
 )
 def test_a_drawn_range_stays_inside_it(lo, width, u):
-    from signatelec.dataset import Factor
+    from signatelec.data.dataset import Factor
 
     f = Factor("clearance_m", "range", low=lo, high=lo + width)
     assert lo <= f.from_unit(u) <= lo + width
@@ -358,7 +358,7 @@ def test_regimes_and_preload_epsilon():
         "zero",
         "clearance",
     ]
-    from signatelec.quasistatic import ball_angles_rad, solve_equilibrium_over_time
+    from signatelec.physics.quasistatic import ball_angles_rad, solve_equilibrium_over_time
 
     b = Scene().bearing
     c = clearance_for_epsilon(b, 5820.0, 500.0, 0.6)

@@ -1,6 +1,6 @@
 """Validation of the DEM steady state against quasi-static Hertz theory (Harris 2001, ch. 7).
 
-The theory (signatelec.quasistatic) is evaluated at the very ball angles the DEM has at each
+The theory (signatelec.physics.quasistatic) is evaluated at the very ball angles the DEM has at each
 recorded steady instant, with the same 2D stiffnesses (seed eqs 6, 12-13), the centrifugal force
 and gravity. The DEM is dynamic (rolling, damping, friction), so it should approach the
 quasi-static state closely but not exactly: the issue's 2 % tolerance is used throughout.
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from conftest import CR_N, make_scene
 
-from signatelec.quasistatic import solve_equilibrium_over_time
+from signatelec.physics.quasistatic import solve_equilibrium_over_time
 
 pytestmark = pytest.mark.validation
 

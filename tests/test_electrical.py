@@ -1,4 +1,5 @@
-"""Tests of signatelec.electrical against physics: Hertz theory, Kirchhoff's laws, network theory.
+"""Tests of signatelec.physics.electrical against physics: Hertz theory, Kirchhoff's laws, network
+theory.
 
 Validation tests (marked ``validation``) compare with theory written here independently: the exact
 Hertz ellipse, Stribeck's load distribution and a hand count of eq. 18. The others check laws the
@@ -16,9 +17,9 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 from scipy.special import ellipe, ellipk
 
-from signatelec.bearing import Bearing, raceway_radii
-from signatelec.contact import raceway_curvatures
-from signatelec.electrical import (
+from signatelec.config.bearing import Bearing, raceway_radii
+from signatelec.physics.contact import raceway_curvatures
+from signatelec.physics.electrical import (
     DENSITY_LIMIT_A_M2,
     CurrentDensityWarning,
     ball_conductance,

@@ -20,8 +20,8 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import CR_N, make_scene
 
-from signatelec.electrical import bearing_electrics
-from signatelec.quasistatic import solve_equilibrium_over_time
+from signatelec.physics.electrical import bearing_electrics
+from signatelec.physics.quasistatic import solve_equilibrium_over_time
 
 #: Steady window: from this long after the set-up. With a clearance the DEM's resistance stays
 #: ~1 % below its final value until ~10 ms after the spin-up (a slow transient of the loosely
@@ -30,7 +30,9 @@ SETTLE_S = 10e-3
 DURATION_S = 0.03  # the seed's scene
 # The first recorded instants load the balls with grams, so 0.1 A crosses tiny contacts above
 # the seed's 0.1 A/mm^2: expected there, and not what these tests are about.
-pytestmark = pytest.mark.filterwarnings("ignore::signatelec.electrical.CurrentDensityWarning")
+pytestmark = pytest.mark.filterwarnings(
+    "ignore::signatelec.physics.electrical.CurrentDensityWarning"
+)
 ELECTRICAL_COLUMNS = {
     "balls": ("current_a", "potential_v", "inner_area_m2", "outer_area_m2"),
     "signals": ("resistance_ohm", "max_current_density_a_m2"),
@@ -155,13 +157,13 @@ def _short_scene(**kwargs):
 
 
 def test_electrical_off_is_neither_computed_nor_written(monkeypatch, tmp_path):
-    import signatelec.electrical
-    from signatelec.dem.simulate import simulate
+    import signatelec.physics.electrical
+    from signatelec.engines.simulate import simulate
 
     def refuse(*args, **kwargs):
         raise AssertionError("bearing_electrics called with the electrical effect off")
 
-    monkeypatch.setattr(signatelec.electrical, "bearing_electrics", refuse)
+    monkeypatch.setattr(signatelec.physics.electrical, "bearing_electrics", refuse)
     result = simulate(_short_scene(effects={"electrical": False}))  # not cached: the patch acts
     result.write(tmp_path / "run")
     for table, columns in ELECTRICAL_COLUMNS.items():
@@ -221,7 +223,7 @@ def test_followed_ball_round_is_symmetric_and_keeps_outer_contact(run_scene):
     """Seed fig. 7: over a rolling round the followed ball's outer force is symmetric about the
     load axis, peaks at psi = 0, and never drops to zero: outside the load zone the centrifugal
     force m_b omega_c^2 r_p (plus the radial part of the weight) keeps it on the outer race."""
-    from signatelec.plots import paper_cases, rolling_round
+    from signatelec.studies.paper_figures import paper_cases, rolling_round
 
     scene = paper_cases().figure_6  # the seed's scene, run for one whole round
     result = run_scene(scene)
@@ -250,7 +252,8 @@ def test_followed_ball_round_is_symmetric_and_keeps_outer_contact(run_scene):
 @pytest.mark.validation
 def test_figure_9_clearance_gives_epsilon_0_3_in_the_dem(run_scene):
     """The clearance of figure 9 comes from the quasi-static theory; the DEM confirms it."""
-    from signatelec.plots import EPSILON_SET_LOAD_N, clearance_for_epsilon
+    from signatelec.physics.quasistatic import clearance_for_epsilon
+    from signatelec.studies.paper_figures import EPSILON_SET_LOAD_N
 
     scene = make_scene(duration_s=0.02)
     clearance = clearance_for_epsilon(
@@ -266,7 +269,7 @@ def test_figure_9_clearance_gives_epsilon_0_3_in_the_dem(run_scene):
 
 def test_figures_command_writes_the_three_pngs(tmp_path):
     from signatelec.cli import main
-    from signatelec.plots import FIGURE_FILES
+    from signatelec.studies.paper_figures import FIGURE_FILES
 
     out = tmp_path / "docs" / "figures"
     main(["figures", "--quick", "--quiet", "--out", str(out)])

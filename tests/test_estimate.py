@@ -17,9 +17,9 @@ import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 from threadpoolctl import threadpool_limits
 
-from signatelec import estimate as E
 from signatelec.cli import main
-from signatelec.features import expected_ball_pass_hz
+from signatelec.estimation import estimate as E
+from signatelec.physics.kinematics import expected_ball_pass_hz
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "datasets" / "example_trace.csv"
@@ -124,7 +124,7 @@ def test_flat_forest_matches_scikit_learn():
 
 
 def test_model_features_are_trace_features():
-    from signatelec.features import trace_feature_names
+    from signatelec.estimation.features import trace_feature_names
 
     assert set(E.MODEL_FEATURES) <= set(trace_feature_names())
     assert len(set(E.MODEL_FEATURES)) == len(E.MODEL_FEATURES)
@@ -228,7 +228,7 @@ def test_estimate_example_json(small_model, tmp_path, capsys):
 )
 def test_uncertain_regime_is_said(small_model, monkeypatch, probabilities, confident):
     """Below CONFIDENT_PROBABILITY the estimate flags the regime and names the rivals."""
-    from signatelec.traces import prepare_trace, read_trace
+    from signatelec.measurement.traces import prepare_trace, read_trace
 
     model = E.load_model(small_model)
     predict_one = model.predict_one

@@ -3,7 +3,8 @@
 Invariance: one continuous signal (the quasi-static tier's steady resistance at 200 kHz, band-
 limited by the measurement model's anti-alias filter to 20 and 50 kHz) gives the same features
 at either rate and for 50 or 200 ms, except those that by design measure how well the trace
-determines the rest (:data:`signatelec.features.LENGTH_DEPENDENT`) and the noise features,
+determines the rest (:data:`signatelec.estimation.features.LENGTH_DEPENDENT`) and the noise
+features,
 checked on added white noise instead: per-sample ones for the same per-sample noise, density
 ones for the same density.
 """
@@ -16,8 +17,8 @@ import numpy as np
 import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from signatelec import features as F
-from signatelec.bearing import Bearing
+from signatelec.config.bearing import Bearing
+from signatelec.estimation import features as F
 
 #: Features of the signal itself (the ripple and the level), compared on the noise-free trace.
 SIGNAL_FEATURES = (
@@ -39,9 +40,9 @@ def test_sklearn_contract(estimator, check):
 @pytest.fixture(scope="module")
 def clean_signal():
     """The same signal at 20 and 50 kHz: {rate: resistance over 0.2 s}."""
-    from signatelec.dem.simulate import simulate
-    from signatelec.measurement import MeasurementModel
-    from signatelec.scene import Scene
+    from signatelec.config.scene import Scene
+    from signatelec.engines.simulate import simulate
+    from signatelec.measurement.model import MeasurementModel
 
     scene = Scene().with_overrides(
         radial_load_n=7000.0,
@@ -216,8 +217,8 @@ def test_twins_match_transformers():
 def test_first_harmonic_at_zero_clearance(fraction):
     """Quasi-static tier at zero clearance: the first harmonic is 0.123-0.126 % of the level
     from 0.1 to 0.4 C_r (the ripple follows the load zone, not the load)."""
-    from signatelec.dem.simulate import simulate
-    from signatelec.scene import Scene
+    from signatelec.config.scene import Scene
+    from signatelec.engines.simulate import simulate
 
     scene = Scene().with_overrides(
         radial_load_n=fraction * 29100.0, duration_s=0.007 + 0.06, fidelity="quasistatic"

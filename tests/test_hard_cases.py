@@ -43,20 +43,24 @@ from conftest import CR_N, make_scene, solve_network
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import signatelec.dem.simulate as dem_simulate
-from signatelec import contact
-from signatelec.bearing import OUTER, POLYAMIDE, Bearing, Material, contact_properties
+import signatelec.engines.dem.run as dem_simulate
 from signatelec.cli import main
-from signatelec.dem import kernel_template as K
-from signatelec.dem.simulate import DivergenceError, simulate
-from signatelec.dem.stability import StabilityLimit, scene_law, stability_limit
-from signatelec.electrical import OUTER_RING_NODE, ball_conductance
-from signatelec.quasistatic import ball_angles_rad, solve_equilibrium
-from signatelec.scene import SceneError
+from signatelec.config.bearing import OUTER, POLYAMIDE, Bearing, Material, contact_properties
+from signatelec.config.scene import SceneError
+from signatelec.engines.dem import kernel as K
+from signatelec.engines.dem.stability import StabilityLimit, stability_limit
+from signatelec.engines.laws import scene_law
+from signatelec.engines.results import DivergenceError
+from signatelec.engines.simulate import simulate
+from signatelec.physics import contact
+from signatelec.physics.electrical import OUTER_RING_NODE, ball_conductance
+from signatelec.physics.quasistatic import ball_angles_rad, solve_equilibrium
 
 # The seed's 0.1 A/mm^2 current-density warning fires at the first contact instants of every
 # run; it concerns the electrical model, not this issue.
-pytestmark = pytest.mark.filterwarnings("ignore::signatelec.electrical.CurrentDensityWarning")
+pytestmark = pytest.mark.filterwarnings(
+    "ignore::signatelec.physics.electrical.CurrentDensityWarning"
+)
 
 CREATION_RTOL = 3e-4
 BALANCE_RTOL = 1e-3
@@ -379,7 +383,7 @@ def test_forced_divergence_through_the_cli_exits_3_and_writes_nothing(
     assert list(work.iterdir()) == []
 
 
-# --- contact laws (signatelec.contact): properties ----------------------------------------------
+# --- contact laws (signatelec.physics.contact): properties ----------------------------------------
 
 BEARING = Bearing()
 HERTZ = contact.law_coefficients(BEARING, "hertz")[0]

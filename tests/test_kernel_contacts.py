@@ -1,4 +1,5 @@
-"""The kernel computes the contact laws of signatelec.contact (a same-code consistency guard).
+"""The kernel computes the contact laws of signatelec.physics.contact (a same-code consistency
+guard).
 
 One ball is pressed into the outer race with a known overlap and closing speed, and one
 evaluation of the kernel's forces is compared with the pure functions of seed eqs 4, 5, 7-9.
@@ -10,11 +11,11 @@ import numpy as np
 import pytest
 from conftest import make_scene
 
-from signatelec import contact
-from signatelec.bearing import OUTER, contact_properties
-from signatelec.dem import kernel_template as K
-from signatelec.dem.kernels import KernelFlags, get_kernel
-from signatelec.dem.simulate import KernelState, kernel_parameters
+from signatelec.config.bearing import OUTER, contact_properties
+from signatelec.engines.dem import kernel as K
+from signatelec.engines.dem.build import KernelFlags, get_kernel
+from signatelec.engines.dem.run import KernelState, kernel_parameters
+from signatelec.physics import contact
 
 
 @pytest.mark.parametrize("law", ["hertz", "linear"])
@@ -81,7 +82,7 @@ def test_hertz_critical_damping_closed_form():
 
 
 def test_warm_started_roots_equal_cold_ones():
-    """The kernel's roots warm-started from the steps before (kernel_template.rsqrt_warm,
+    """The kernel's roots warm-started from the steps before (kernel.rsqrt_warm,
     rquart_warm) give the forces a cold start gives, to rounding, on every contact type.
 
     Rounding here: a few ulp of the centre distance d, which the overlap reach - d amplifies by

@@ -14,9 +14,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from signatelec.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2, Bearing
-from signatelec.contact import hertz_overlap, law_coefficients
-from signatelec.quasistatic import (
+from signatelec.config.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2, Bearing
+from signatelec.physics.contact import hertz_overlap, law_coefficients
+from signatelec.physics.quasistatic import (
     ball_angles_rad,
     ball_loads,
     epsilon_from_shift,

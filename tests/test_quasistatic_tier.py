@@ -1,7 +1,8 @@
-"""The quasi-static tier (signatelec.quasistatic_tier) and the fidelity presets.
+"""The quasi-static tier (signatelec.engines.quasistatic.tier) and the fidelity presets.
 
 Expected values come from Harris (Rolling Bearing Analysis, 4th ed., 2001, table 7.1), from the
-module signatelec.quasistatic (the reference implementation of the same equations) and from the
+module signatelec.physics.quasistatic (the reference implementation of the same equations) and from
+the
 DEM; each tolerance says where it comes from.
 """
 
@@ -14,20 +15,21 @@ import pandas as pd
 import pytest
 from conftest import make_scene
 
-from signatelec.bearing import Bearing
 from signatelec.cli import main
-from signatelec.contact import hertz_overlap
-from signatelec.dem.simulate import simulate
-from signatelec.dem.stability import scene_law, stability_limit
-from signatelec.fidelity import PRESETS, apply_fidelity, cage_mass_scale, scale_cage_mass
-from signatelec.quasistatic import harris_radial_integral, solve_equilibrium_over_time
-from signatelec.quasistatic_tier import (
+from signatelec.config.bearing import Bearing
+from signatelec.config.scene import Scene, SceneError
+from signatelec.engines.dem.stability import stability_limit
+from signatelec.engines.fidelity import PRESETS, apply_fidelity, cage_mass_scale, scale_cage_mass
+from signatelec.engines.laws import scene_law
+from signatelec.engines.quasistatic.tier import (
     kinematic_ball_angles_rad,
     simulate_quasistatic,
     solve_ring_equilibrium,
     steady_record_times_s,
 )
-from signatelec.scene import Scene, SceneError
+from signatelec.engines.simulate import simulate
+from signatelec.physics.contact import hertz_overlap
+from signatelec.physics.quasistatic import harris_radial_integral, solve_equilibrium_over_time
 
 SEED = Bearing()
 # 400 balls need a pitch circle of ~1 m to fit: the seed's balls and grooves on a large ring.
@@ -82,7 +84,7 @@ def test_tier_reproduces_harris_radial_integral_with_many_balls(epsilon, harris_
     assert result.timings["fallback_instants"] == 0
 
 
-# --- the compiled solver against signatelec.quasistatic ------------------------------------------
+# --- the compiled solver against signatelec.physics.quasistatic -----------------------------------
 
 
 @pytest.mark.parametrize(

@@ -5,7 +5,7 @@ value raises :class:`SceneError` with one line naming the key, the value and wha
 
 TOML layout (every section and key optional; defaults are the seed's scene, section 4)::
 
-    [bearing]      # fields of signatelec.bearing.Bearing (radii, n_balls, materials, ...)
+    [bearing]      # fields of signatelec.config.bearing.Bearing (radii, n_balls, materials, ...)
     [operating]    radial_load_n, clearance_m, omega_rad_s, initial_ball_angle_rad,
                    injected_current_a
     [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp
@@ -23,8 +23,8 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from signatelec.bearing import Bearing, BearingError
-from signatelec.contact import CONTACT_LAWS
+from signatelec.config.bearing import Bearing, BearingError
+from signatelec.physics.contact import CONTACT_LAWS
 
 
 class SceneError(ValueError):
@@ -34,8 +34,8 @@ class SceneError(ValueError):
 INTEGRATORS = ("verlet", "euler")
 TANGENTIAL_MODELS = ("seed", "spring")
 LOAD_RAMPS = ("smooth", "step")
-#: "dem": the DEM kernel; "quasistatic": the steady phase by signatelec.quasistatic_tier (no
-#: dynamics: ~1 ms instead of ~0.2 s for the seed's scene). Presets: signatelec.fidelity.
+#: "dem": the DEM kernel; "quasistatic": the steady phase by signatelec.engines.quasistatic.tier (no
+#: dynamics: ~1 ms instead of ~0.2 s for the seed's scene). Presets: signatelec.engines.fidelity.
 FIDELITIES = ("dem", "quasistatic")
 
 
@@ -274,8 +274,8 @@ def ball_load_limit_n(bearing: Bearing) -> float:
 
     The smaller of the inner and outer contacts (seed eqs 6, 8, 12-13), whatever the scene's law.
     """
-    from signatelec.bearing import INNER, OUTER
-    from signatelec.contact import hertz_normal_force, law_coefficients
+    from signatelec.config.bearing import INNER, OUTER
+    from signatelec.physics.contact import hertz_normal_force, law_coefficients
 
     coef, _ = law_coefficients(bearing, "hertz")
     overlap = OVERLAP_LIMIT_FRACTION * bearing.ball_radius_m
@@ -335,7 +335,7 @@ def validate_scene(scene: Scene) -> None:
         f"must be within +-{0.05 * rb:.3g} m (5 % of the ball radius)",
     )
     if op.clearance_m < 0.0:
-        from signatelec.dem.stability import preload_limit_m
+        from signatelec.physics.quasistatic import preload_limit_m
 
         limit = preload_limit_m(scene.bearing)
         _check(

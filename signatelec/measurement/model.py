@@ -19,7 +19,7 @@ would give, in this order:
 
 ``noise_fraction``, ``drift_fraction`` and ``offset_ohm`` are ranges ``(low, high)``: each trace
 draws its own value uniformly (a fixed value is a range of zero width). Every random number comes
-from the generator handed in (one per trace, see :mod:`signatelec.dataset`), always in the same
+from the generator handed in (one per trace, see :mod:`signatelec.data.dataset`), always in the same
 order, so a trace is reproducible on its own.
 """
 

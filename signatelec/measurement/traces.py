@@ -2,7 +2,8 @@
 
 :func:`read_trace` reads a CSV or Parquet table with a time column (s) and a resistance column
 (ohm); :func:`prepare_trace` turns the two columns into a uniformly sampled, finite trace fit for
-:mod:`signatelec.features`, or raises :class:`TraceError` with one line saying what is wrong.
+:mod:`signatelec.estimation.features`, or raises :class:`TraceError` with one line saying what is
+wrong.
 
 Repaired (each repair is listed in :attr:`Trace.repairs`):
 
@@ -21,7 +22,7 @@ Refused:
   ``MAX_GAP_BALL_PASSES`` of a ball pass (the ripple cannot be filled in);
 - open circuit (infinite or non-positive resistance) beyond ``MAX_OPEN_FRACTION``;
 - a trace shorter than ``MIN_BALL_PASSES`` ball passes at the given omega, or sampled below
-  :func:`signatelec.features.minimum_sample_rate_hz` (the harmonics would alias);
+  :func:`minimum_sample_rate_hz` (the harmonics would alias);
 - omega not a finite speed > 0.
 """
 
@@ -33,7 +34,33 @@ from pathlib import Path
 
 import numpy as np
 
-from signatelec.features import expected_ball_pass_hz, minimum_sample_rate_hz
+from signatelec.config.bearing import Bearing
+from signatelec.physics.kinematics import expected_ball_pass_hz
+
+#: Harmonics of the ball-pass frequency the analysis fits by default (the quasi-static tier puts
+#: the 5th and higher below 0.01 % of the level over 0.1-0.4 C_r, epsilon 0.3-0.6).
+N_HARMONICS = 4
+#: Half-width of the search for the ball-pass frequency around the kinematic one: the cage slip
+#: of the DEM is -0.3 % to +0.1 %; a wider band lets noise peaks win for weak ripples.
+SEARCH_REL = 0.01
+
+
+def minimum_sample_rate_hz(
+    omega_rad_s: float, n_harmonics: int = N_HARMONICS, bearing: Bearing | None = None
+) -> float:
+    """Lowest sampling rate whose Nyquist band holds the bands of
+    :func:`signatelec.estimation.features.spectrum_features`.
+
+    The top band ends at (2 K + 0.5) f_bp (K harmonics); with the search margin
+    (:data:`SEARCH_REL`) that asks for fs >= 2 (2 K + 0.5) f_bp (1 + SEARCH_REL).
+    """
+    return (
+        2.0
+        * (2 * n_harmonics + 0.5)
+        * expected_ball_pass_hz(omega_rad_s, bearing)
+        * (1.0 + SEARCH_REL)
+    )
+
 
 #: Shortest trace, in ball passes (the harmonics need a few periods to stand out of the noise).
 MIN_BALL_PASSES = 5.0

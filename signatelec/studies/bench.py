@@ -12,8 +12,8 @@ import platform
 import tempfile
 from dataclasses import replace
 
-from signatelec import __version__
-from signatelec.scene import Effects, Numerics, Scene
+from signatelec._version import __version__
+from signatelec.config.scene import Effects, Numerics, Scene
 
 #: (name, what changes from the seed scene)
 CASES: tuple[tuple[str, dict], ...] = (
@@ -51,7 +51,7 @@ def run_bench(duration_s: float = 0.03, fresh_cache: bool = True, repeat: int = 
     """Run every case ``repeat`` times: compile time from the first run, the step cost from the
     fastest (the others carry cold caches or another process's load; on a shared 2-core host the
     same kernel measured 0.47-0.75 us/step from one run to the next)."""
-    from signatelec.dem.simulate import simulate
+    from signatelec.engines.simulate import simulate
 
     if fresh_cache:
         os.environ["SIGNATELEC_CACHE_DIR"] = tempfile.mkdtemp(prefix="signatelec-bench-")

@@ -136,7 +136,7 @@ class Bearing:
         for key in ("ball_material", "cage_material"):
             material = getattr(self, key)
             # a catalogue material by its name; any other (e.g. a mass-scaled cage, see
-            # signatelec.fidelity) as its full table, so that from_dict gives it back
+            # signatelec.engines.fidelity) as its full table, so that from_dict gives it back
             if MATERIALS.get(material.name) == material:
                 d[key] = material.name
         return d

@@ -43,8 +43,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import quad
 
-from signatelec.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2, Bearing
-from signatelec.contact import (
+from signatelec.config.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2, Bearing, raceway_radii
+from signatelec.physics.contact import (
     hertz_elastic_energy,
     hertz_normal_force,
     hertz_normal_stiffness,
@@ -187,7 +187,7 @@ class _LawFunctions(NamedTuple):
     overlap: Callable  # (force_n, coefficient) -> m
 
 
-# Per exponent, the contact laws of signatelec.contact: the theory uses the DEM's own laws.
+# Per exponent, the contact laws of signatelec.physics.contact: the theory uses the DEM's own laws.
 _LAW_FUNCTIONS = {
     1.5: _LawFunctions(
         hertz_normal_force, hertz_normal_stiffness, hertz_elastic_energy, hertz_overlap
@@ -356,7 +356,7 @@ def ball_loads(
     omega_rad_s : float
         Inner-ring speed, rad/s (sets the cage speed of the centrifugal force).
     law : {"hertz", "harris", "linear"}
-        Contact law of :func:`signatelec.contact.law_coefficients`.
+        Contact law of :func:`signatelec.physics.contact.law_coefficients`.
     centrifugal, gravity : bool
         Body forces on the balls.
     linear_stiffness_n_m : float, optional
@@ -695,3 +695,63 @@ def solve_equilibrium(
         initial_shift_xy_m=initial_shift_xy_m,
     )
     return QuasiStaticState(**{k: v[0] for k, v in vars(state).items()})
+
+
+def clearance_for_epsilon(
+    bearing, radial_load_n: float, omega_rad_s: float, epsilon: float
+) -> float:
+    """Radial clearance (m) giving load parameter ``epsilon`` (seed eq. 15) at ``radial_load_n``.
+
+    Quasi-static Hertz equilibrium (signatelec.physics.quasistatic) with the centrifugal force and
+    gravity, averaged over the ball positions of one ball spacing; epsilon falls monotonically
+    as the clearance grows, so a bracketing root finder is safe. For the seed's 6208 at 5820 N
+    and 500 rad/s, epsilon = 0.3 needs about +47 um.
+    """
+    from scipy.optimize import brentq
+
+    z = bearing.n_balls
+    cage = np.linspace(0.0, 2.0 * math.pi / z, 8, endpoint=False)
+    angles = ball_angles_rad(z, cage)
+
+    def excess(clearance_m: float) -> float:
+        state = solve_equilibrium_over_time(
+            angles,
+            bearing,
+            radial_load_n,
+            clearance_m,
+            omega_rad_s,
+            centrifugal=True,
+            gravity=True,
+        )
+        return float(np.mean(state.epsilon)) - epsilon
+
+    if not 0.0 < epsilon < 0.5:
+        raise ValueError(f"epsilon = {epsilon!r}: a clearance gives 0 < epsilon < 0.5")
+    upper = 0.05 * bearing.ball_radius_m  # the largest clearance a scene accepts
+    return float(brentq(excess, 1e-9, upper, xtol=1e-10))
+
+
+#: Maximum Hertz contact pressure a ball bearing takes statically (ISO 76), Pa.
+STATIC_PRESSURE_LIMIT_PA = 4.2e9
+
+
+def preload_limit_m(bearing) -> float:
+    """Largest preload (-clearance) whose ball load keeps p0 = 3 Q / (2 pi a b) <= 4.2 GPa.
+
+    The contact ellipse is Hamrock-Brewe's (seed eqs 17-18); the load from the Hertz law
+    (eq. 8) with inner and outer contacts in series.
+    """
+    from signatelec.physics.electrical import contact_ellipse
+
+    coef, n = law_coefficients(bearing, "hertz")
+    radii = raceway_radii(bearing)
+    e_eq = bearing.ball_material.plane_strain_modulus_pa
+    q_ref = 1000.0
+    q_limit = math.inf
+    for race in ("inner", "outer"):
+        _, _, r_eq, alpha = radii[race]
+        _, _, area = contact_ellipse(q_ref, r_eq, alpha, e_eq)
+        p0 = 1.5 * q_ref / area
+        q_limit = min(q_limit, q_ref * (STATIC_PRESSURE_LIMIT_PA / p0) ** 3)  # p0 ~ Q^(1/3)
+    compliance = coef[INNER] ** (-1.0 / n) + coef[OUTER] ** (-1.0 / n)
+    return q_limit ** (1.0 / n) * compliance

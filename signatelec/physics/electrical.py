@@ -49,7 +49,7 @@ from scipy import sparse
 from scipy.sparse import csgraph
 from scipy.sparse.linalg import spsolve
 
-from signatelec.bearing import Bearing, raceway_radii
+from signatelec.config.bearing import Bearing, raceway_radii
 
 OUTER_RING_NODE = 0
 INNER_RING_NODE = 1
@@ -117,7 +117,8 @@ def contact_ellipse(normal_force_n, radius_eq_m, radius_ratio, plane_modulus_pa)
 def bearing_contact_area(normal_force_n, bearing: Bearing, contact: str):
     """Contact area S (m^2) of a steel ball on ``"inner"`` / ``"outer"`` raceway or ``"ball_ball"``.
 
-    Raceways take R_eq and alpha of seed eqs 12-13 (:func:`signatelec.bearing.raceway_radii`); two
+    Raceways take R_eq and alpha of seed eqs 12-13
+    (:func:`signatelec.config.bearing.raceway_radii`); two
     equal balls touch with alpha = 1 and R_eq = R_b / 4 (curvature sum 4 / R_b; not the Hertz
     R* = R_b / 2 of seed table 2, which pairs with E* = E_eq / 2 rather than E_eq). Eq. 18.
     """

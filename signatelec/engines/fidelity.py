@@ -2,7 +2,8 @@
 
 ``apply_fidelity(scene, name)`` returns the scene run at one rung of the fidelity ladder:
 
-- ``"quasistatic"``: the quasi-static tier (:mod:`signatelec.quasistatic_tier`), steady phase
+- ``"quasistatic"``: the quasi-static tier (:mod:`signatelec.engines.quasistatic.tier`), steady
+phase
   only, no dynamics; milliseconds per scene.
 - ``"dem"``: the DEM with the scene's own numerics (the paper's: velocity Verlet, dt = 1e-7 s,
   every seed effect, unless the scene says otherwise).
@@ -20,7 +21,7 @@
 
   Both cheaper presets use symplectic Euler, whose stability limit with contact damping is
   about twice velocity Verlet's (damping at v_n rather than at the predicted velocity; see
-  :mod:`signatelec.dem.stability`) for the same accuracy at a given dt. Below about 1/10 of
+  :mod:`signatelec.engines.dem.stability`) for the same accuracy at a given dt. Below about 1/10 of
   the paper's cost the per-sample work (electrical network and tables at 20 kHz) dominates and
   a larger dt no longer pays.
 
@@ -36,8 +37,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, replace
 
-from signatelec.bearing import MATERIALS, Material
-from signatelec.scene import FIDELITIES, Scene, SceneError
+from signatelec.config.bearing import MATERIALS, Material
+from signatelec.config.scene import FIDELITIES, Scene, SceneError
 
 _SCALED = re.compile(r"^(?P<base>.*) \(mass x(?P<factor>[0-9.eE+-]+)\)$")
 
@@ -167,7 +168,7 @@ def apply_numerics(
     ``dt_s``, or ``dt_limit_fraction`` of the stability limit the scene then has (None: keep)."""
     scene = scale_cage_mass(scene.with_overrides(**overrides), cage_mass_scale)
     if dt_limit_fraction is not None:
-        from signatelec.dem.stability import stability_limit
+        from signatelec.engines.dem.stability import stability_limit
 
         dt_s = dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
     return scene.with_overrides(dt_s=dt_s)

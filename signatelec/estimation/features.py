@@ -6,7 +6,8 @@ the inner ring turns at ``omega_rad_s``. Its physics (seed sections 3-4):
 - the level falls with the radial load as F_r^(-4/3) (Hertz) and a little with epsilon;
 - each ball entering or leaving the load zone changes the Kirchhoff network, so the resistance
   ripples at the ball-pass frequency f_bp = Z omega_c / 2 pi
-  (:meth:`~signatelec.bearing.Bearing.ball_pass_frequency_hz`) and its harmonics; the ripple's
+  (:meth:`~signatelec.config.bearing.Bearing.ball_pass_frequency_hz`) and its harmonics; the
+  ripple's
   size and shape, relative to the level, follow the load zone (epsilon), hardly the load: at
   zero clearance the first harmonic is 0.123-0.126 % of the level from 0.1 to 0.4 C_r
   (quasi-static tier), while it swings between ~0 and 0.22 % as epsilon goes from 0.3 to 0.6
@@ -52,23 +53,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
 from scipy import fft as sfft
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from signatelec.bearing import Bearing
+from signatelec.config.bearing import Bearing
+from signatelec.measurement.traces import N_HARMONICS, SEARCH_REL
+from signatelec.physics.kinematics import expected_ball_pass_hz
 
-#: Harmonics of the ball-pass frequency fitted by default (the quasi-static tier puts the 5th
-#: and higher below 0.01 % of the level over 0.1-0.4 C_r, epsilon 0.3-0.6).
-N_HARMONICS = 4
 #: Ball passes per Welch segment: resolution f_bp / 4, bins at multiples of f_bp / 4.
 PASSES_PER_SEGMENT = 4
-#: Half-width of the search for the ball-pass frequency around the kinematic one: the cage slip
-#: of the DEM is -0.3 % to +0.1 %; a wider band lets noise peaks win for weak ripples.
-SEARCH_REL = 0.01
 #: Points of the synthesised ripple waveform over one ball pass.
 WAVEFORM_POINTS = 64
 #: Phase bins of the folded raw trace.
@@ -78,32 +74,6 @@ LENGTH_DEPENDENT = ("harmonic_snr", "duration_ball_passes", "ball_pass_peak_rati
 
 _MAD_TO_SIGMA = 1.4826
 _IQR_TO_SIGMA = 1.0 / 1.349
-
-
-@cache
-def _default_bearing() -> Bearing:
-    return Bearing()
-
-
-def expected_ball_pass_hz(omega_rad_s: float, bearing: Bearing | None = None) -> float:
-    """Kinematic ball-pass frequency Z omega_c / 2 pi of ``bearing`` (default: the seed's 6208)."""
-    return (bearing or _default_bearing()).ball_pass_frequency_hz(omega_rad_s)
-
-
-def minimum_sample_rate_hz(
-    omega_rad_s: float, n_harmonics: int = N_HARMONICS, bearing: Bearing | None = None
-) -> float:
-    """Lowest sampling rate whose Nyquist band holds the bands of :func:`spectrum_features`.
-
-    The top band ends at (2 K + 0.5) f_bp (K harmonics); with the search margin
-    (:data:`SEARCH_REL`) that asks for fs >= 2 (2 K + 0.5) f_bp (1 + SEARCH_REL).
-    """
-    return (
-        2.0
-        * (2 * n_harmonics + 0.5)
-        * expected_ball_pass_hz(omega_rad_s, bearing)
-        * (1.0 + SEARCH_REL)
-    )
 
 
 # --- one analysis per trace -------------------------------------------------------------------

@@ -1,6 +1,6 @@
 """Kernels specialised per effect set.
 
-:func:`get_kernel` copies ``kernel_template.py`` with its flag line set for one effect set into
+:func:`get_kernel` copies ``kernel.py`` with its flag line set for one effect set into
 the cache directory (``$SIGNATELEC_CACHE_DIR``, else ``~/.cache/signatelec``) and imports it;
 numba's ``cache=True`` then keeps the machine code on disk, so each effect set compiles once per
 machine and every later process (CLI runs, dataset workers) only loads it.
@@ -18,7 +18,7 @@ from functools import cache
 from pathlib import Path
 from types import ModuleType
 
-TEMPLATE = Path(__file__).with_name("kernel_template.py")
+TEMPLATE = Path(__file__).with_name("kernel.py")
 FLAG_NAMES = (
     "CAGE",
     "FRICTION",
@@ -35,7 +35,7 @@ _FLAG_LINE = re.compile(r"^CAGE, FRICTION, .*$", re.MULTILINE)
 
 @dataclass(frozen=True)
 class KernelFlags:
-    """Compile-time switches of one kernel; see the module docstring of kernel_template."""
+    """Compile-time switches of one kernel; see the module docstring of kernel."""
 
     cage: bool = True
     friction: bool = True

@@ -1,6 +1,6 @@
 """Load-state estimation from a resistance trace (issue 6): F_r, epsilon, clearance, regime.
 
-The estimator reads the features of :mod:`signatelec.features` and gives, for each trace:
+The estimator reads the features of :mod:`signatelec.estimation.features` and gives, for each trace:
 
 - ``radial_load_n``, ``epsilon``, ``clearance_m``: the median of a gradient-boosted quantile
   model and a prediction interval of nominal coverage ``coverage`` (default 90 %): quantile models
@@ -50,8 +50,8 @@ from sklearn.model_selection import (
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
 
-from signatelec import __version__
-from signatelec.features import N_HARMONICS, trace_feature_names, trace_features
+from signatelec._version import __version__
+from signatelec.estimation.features import N_HARMONICS, trace_feature_names, trace_features
 
 #: Bumped whenever a feature changes meaning: models trained on other features are refused.
 FEATURE_SET_VERSION = 1
@@ -745,7 +745,7 @@ def features_frame(
 
 
 def features_from_dataset(path: str | Path) -> pd.DataFrame:
-    """Feature table of a :mod:`signatelec.dataset` directory (or a Parquet feature table).
+    """Feature table of a :mod:`signatelec.data.dataset` directory (or a Parquet feature table).
 
     A dataset holds one measured trace per row (``resistance_ohm`` as a list column, its
     ``sample_rate_hz`` and labels); each trace gives one row of features, grouped by trace_id.
@@ -757,7 +757,7 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
         if "resistance_ohm" not in table.columns:
             return table
     else:
-        from signatelec.dataset import read_dataset
+        from signatelec.data.dataset import read_dataset
 
         table = read_dataset(path)
     if "status" in table.columns:
@@ -820,7 +820,7 @@ def default_model(log=None) -> LoadStateModel:
 
 
 def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
-    """Estimate the load state of a prepared :class:`signatelec.traces.Trace`.
+    """Estimate the load state of a prepared :class:`signatelec.measurement.traces.Trace`.
 
     Returns a flat dict: ``radial_load_n``, ``epsilon``, ``clearance_m`` with ``*_low`` and
     ``*_high`` (interval of nominal ``interval_coverage``), ``regime``,

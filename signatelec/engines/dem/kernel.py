@@ -1,6 +1,6 @@
 """DEM kernel of the 2D bearing, specialised per effect set.
 
-This file is a template: :mod:`signatelec.dem.kernels` copies it with the flag block below set
+This file is a template: :mod:`signatelec.engines.dem.build` copies it with the flag block below set
 for one effect set and compiles that copy with numba (``cache=True``), so an effect that is off
 is not in the machine code at all. Every array is float64 unless stated; nothing is allocated in
 the time loop.
@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from signatelec import contact as _contact
+from signatelec.physics import contact as _contact
 
 # No nnan/ninf: the divergence check relies on math.isfinite. The time loop and the functions it
 # calls run without numba's reference counting (_nrt=False): they allocate nothing, and the
@@ -54,7 +54,7 @@ def coulomb_limit(tangential_force_n, normal_force_n, friction_coefficient):
     return min(max(tangential_force_n, -limit), limit)
 
 
-# Parameter vector layout (see signatelec.dem.simulate.kernel_parameters).
+# Parameter vector layout (see signatelec.engines.dem.run.kernel_parameters).
 P_DT, P_RB, P_RC, P_RIN, P_ROUT0, P_CLEAR, P_RP = 0, 1, 2, 3, 4, 5, 6
 P_MB, P_IB, P_MC, P_MI, P_FR, P_OMEGA, P_T1, P_T2, P_T3 = 7, 8, 9, 10, 11, 12, 13, 14, 15
 P_G, P_MU, P_MAXFRAC = 16, 17, 18

@@ -4,15 +4,16 @@ For each study scene (light load 0.1 C_r, heavy 0.4 C_r, a 10 um preload, zero c
 40 um clearance; omega = 500 rad/s) a **reference** DEM run (velocity Verlet, dt = 1e-8 s, every
 seed effect) is compared with each **setting** of the ladder:
 
-- the quasi-static tier (:mod:`signatelec.quasistatic_tier`);
+- the quasi-static tier (:mod:`signatelec.engines.quasistatic.tier`);
 - the DEM with the seed's effects at several dt (1e-8 s up to the stability limit of
-  :func:`signatelec.dem.stability.stability_limit`), with velocity Verlet or symplectic Euler;
+  :func:`signatelec.engines.dem.stability.stability_limit`), with velocity Verlet or symplectic
+  Euler;
 - the DEM with the linear (eq. 3) or Harris (eqs 10-11) contact law instead of Hertz;
 - the DEM without gravity (friction, cage and damping cannot go: the balls would not roll);
 - the DEM with cage-ball mass scaling: the polyamide cage balls, whose lightness sets the
   stability limit, made heavier (a numerical device: they carry no current and ~1 N), so dt can
   grow to the steel balls' limit;
-- the fidelity presets of :mod:`signatelec.fidelity`.
+- the fidelity presets of :mod:`signatelec.engines.fidelity`.
 
 Each run covers the set-up phases, ``SETTLE_S`` for the spin-up transient, then
 ``N_PERIODS`` ball-pass periods; the comparison window is the part after the settling. Compared
@@ -44,7 +45,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from signatelec.scene import Scene
+from signatelec.config.scene import Scene
 
 #: NSK basic dynamic load rating of the 6208, N (seed 2.2.2).
 DYNAMIC_LOAD_RATING_N = 29100.0
@@ -82,7 +83,7 @@ class Setting:
     """One rung of the ladder: a tier and its numerics/effects, applied to a study scene.
 
     ``dt_s`` is absolute; ``dt_limit_fraction`` sets dt as a fraction of the scene's stability
-    limit instead. ``preset`` applies :func:`signatelec.fidelity.apply_fidelity` (the other
+    limit instead. ``preset`` applies :func:`signatelec.engines.fidelity.apply_fidelity` (the other
     fields are then ignored).
     """
 
@@ -100,19 +101,19 @@ class Setting:
         """What the setting does (a preset's current bundle included): cached rows must match."""
         text = repr(self)
         if self.preset is not None:
-            from signatelec.fidelity import PRESETS
+            from signatelec.engines.fidelity import PRESETS
 
             text += repr(PRESETS.get(self.preset))
         return text
 
     def scene(self, base: Scene) -> Scene:
         if self.preset is not None:
-            from signatelec.fidelity import apply_fidelity
+            from signatelec.engines.fidelity import apply_fidelity
 
             return apply_fidelity(base, self.preset)
         if self.tier == "quasistatic":
             return base.with_overrides(fidelity="quasistatic")
-        from signatelec.fidelity import apply_numerics
+        from signatelec.engines.fidelity import apply_numerics
 
         return apply_numerics(
             base,
@@ -304,9 +305,9 @@ _WARM: set = set()
 
 def _warm_up(scene: Scene) -> None:
     """Load (or compile) the scene's kernel, or the quasi-static tier, before it is timed."""
-    from signatelec.dem.kernels import KernelFlags
-    from signatelec.dem.simulate import simulate
-    from signatelec.dem.stability import stability_limit
+    from signatelec.engines.dem.build import KernelFlags
+    from signatelec.engines.dem.stability import stability_limit
+    from signatelec.engines.simulate import simulate
 
     quasistatic = scene.numerics.fidelity == "quasistatic"
     key = "quasistatic" if quasistatic else KernelFlags.from_scene(scene)
@@ -323,8 +324,8 @@ def _warm_up(scene: Scene) -> None:
 
 def run_case(scene: Scene) -> tuple[object, dict]:
     """Simulate a scene; returns the result and its cost (kernel compile/load excluded)."""
-    from signatelec.dem.simulate import simulate
-    from signatelec.electrical import CurrentDensityWarning
+    from signatelec.engines.simulate import simulate
+    from signatelec.physics.electrical import CurrentDensityWarning
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CurrentDensityWarning)
@@ -334,7 +335,7 @@ def run_case(scene: Scene) -> tuple[object, dict]:
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     compile_s = result.timings.get("compile_s", 0.0)
     if scene.numerics.fidelity == "quasistatic":
-        from signatelec.dem.simulate import phase_times
+        from signatelec.engines.results import phase_times
 
         bearing_time = scene.numerics.duration_s - phase_times(scene)[2]
     else:
@@ -352,8 +353,8 @@ def run_case(scene: Scene) -> tuple[object, dict]:
 
 
 def _setting_columns(setting: Setting, scene: Scene) -> dict:
-    from signatelec.dem.stability import stability_limit
-    from signatelec.fidelity import cage_mass_scale
+    from signatelec.engines.dem.stability import stability_limit
+    from signatelec.engines.fidelity import cage_mass_scale
 
     nu, e = scene.numerics, scene.effects
     dem = nu.fidelity == "dem"
@@ -427,8 +428,8 @@ def run_cases(
     config: StudyConfig, out: Path, progress: bool = True, fresh: bool = False
 ) -> pd.DataFrame:
     """Every scene's reference, then every setting; finished cases are taken from OUT/.cache."""
-    from signatelec.dem.simulate import DivergenceError
-    from signatelec.scene import SceneError
+    from signatelec.config.scene import SceneError
+    from signatelec.engines.results import DivergenceError
 
     cache = _Cache(out, config.key(), fresh)
     cases = [(s, st) for s in config.scenes for st in (REFERENCE, *config.settings)]
@@ -729,6 +730,6 @@ def run_study(
 
 def with_presets(settings: Sequence[Setting]) -> tuple[Setting, ...]:
     """The settings followed by one per fidelity preset."""
-    from signatelec.fidelity import PRESETS
+    from signatelec.engines.fidelity import PRESETS
 
     return (*settings, *(Setting(f"preset {name}", preset=name) for name in PRESETS))

@@ -1,7 +1,8 @@
 """Contact laws of the seed (eqs 3-13) as pure functions.
 
 Each function takes floats or numpy arrays in SI units and has no branch on its inputs, so the
-same source runs in plain Python (the tests) and inside the numba kernels (``signatelec.dem``
+same source runs in plain Python (the tests) and inside the numba kernels
+(``signatelec.engines.dem``
 compiles these very functions). Overlaps are positive when bodies interpenetrate (the seed writes
 delta_n < 0 for contact; we use its magnitude). Closing speeds are positive when the bodies
 approach.
@@ -195,7 +196,8 @@ def law_coefficients(
     """Normal-law coefficients of every contact type and the law's exponent.
 
     Returns ``(coefficients, exponent)`` with ``coefficients`` of shape (5,), indexed by the
-    contact types of :mod:`signatelec.bearing` (INNER, OUTER, BALL_CAGE, CAGE_WALL, BALL_BALL),
+    contact types of :mod:`signatelec.config.bearing` (INNER, OUTER, BALL_CAGE, CAGE_WALL,
+    BALL_BALL),
     such that the elastic normal force is ``coefficient * delta**exponent``.
 
     - ``hertz``: eq. 6/8 with the table 2 / eqs 12-13 equivalent quantities (exponent 3/2).
@@ -207,7 +209,7 @@ def law_coefficients(
       own reference force, so the linear law matches Hertz at the force each contact carries;
       ``reference_force_n`` is one force for all types or five, one per contact type.
     """
-    from signatelec.bearing import INNER, OUTER, contact_properties
+    from signatelec.config.bearing import INNER, OUTER, contact_properties
 
     props = contact_properties(bearing)
     hertz = np.array(

@@ -23,8 +23,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from signatelec.bearing import BALL_BALL, BALL_CAGE, CAGE_WALL, INNER, OUTER, contact_properties
-from signatelec.contact import law_coefficients, mindlin_coefficient
+from signatelec.config.bearing import (
+    BALL_BALL,
+    BALL_CAGE,
+    CAGE_WALL,
+    INNER,
+    OUTER,
+    contact_properties,
+)
+from signatelec.engines.laws import chain_force_n, preload_ball_force_n, scene_law
+from signatelec.physics.contact import mindlin_coefficient
 
 
 @dataclass(frozen=True)
@@ -41,51 +49,6 @@ class StabilityLimit:
             f"(omega = {self.omega_rad_s:.3g} rad/s, damping ratio {self.damping_ratio:.2f}, "
             f"force scale {self.force_scale_n:.4g} N)"
         )
-
-
-def stribeck_load_n(scene) -> float:
-    """Stribeck's maximum ball load 4.37 F_r / Z (at least 10 N), N."""
-    return max(4.37 * scene.operating.radial_load_n / scene.bearing.n_balls, 10.0)
-
-
-def chain_force_n(scene) -> float:
-    """Force the cage-ball chain passes to drive the unloaded balls through the spin-up, N.
-
-    ``ceil(Z/2) (m_b + I_b/R_b^2) a_t`` with a_t = r_p omega_c pi / (2 T_spin), the peak orbital
-    acceleration of the sinusoidal spin-up; for a spin-up step, what friction can pass to a ball,
-    mu times Stribeck's load.
-    """
-    b = scene.bearing
-    t_spin = scene.procedure.spin_up_time_s if scene.effects.spin_up else 0.0
-    if t_spin <= 0.0:
-        return max(b.friction_coefficient, 0.05) * stribeck_load_n(scene)
-    omega_c = b.cage_speed_rad_s(scene.operating.omega_rad_s)
-    a_t = b.pitch_radius_m * omega_c * math.pi / (2.0 * t_spin)
-    inertia_mass = b.ball_mass_kg + b.ball_inertia_kg_m2 / b.ball_radius_m**2
-    return max(math.ceil(b.n_balls / 2) * inertia_mass * a_t, 1.0)
-
-
-def linear_reference_forces_n(scene) -> list[float]:
-    """Force at which each contact type's linear law matches Hertz (contact.law_coefficients):
-    Stribeck's load on ball/raceway and ball/ball contacts, the chain force on cage contacts."""
-    q, chain = stribeck_load_n(scene), chain_force_n(scene)
-    return [q, q, chain, chain, q]
-
-
-def scene_law(scene):
-    """Normal-law coefficients (5,) and exponent of a scene (see contact.law_coefficients)."""
-    stiffness = scene.numerics.linear_stiffness_n_m or None
-    return law_coefficients(
-        scene.bearing, scene.effects.contact_law, stiffness, linear_reference_forces_n(scene)
-    )
-
-
-def preload_ball_force_n(coefficients, exponent: float, clearance_m: float) -> float:
-    """Force on each ball when the outer race closes by -clearance_m (inner/outer in series)."""
-    if clearance_m >= 0.0:
-        return 0.0
-    compliance = coefficients[INNER] ** (-1.0 / exponent) + coefficients[OUTER] ** (-1.0 / exponent)
-    return (-clearance_m / compliance) ** exponent
 
 
 def _tangent(coef: float, exponent: float, force_n: float) -> float:
@@ -177,30 +140,3 @@ def stability_limit(scene) -> StabilityLimit:
     n_inner = max(2, b.n_balls // 2 + 1)
     body("inner ring", [(k[INNER], mb)] * n_inner, b.inner_ring_mass_kg)
     return min(candidates, key=lambda c: c.dt_limit_s)
-
-
-#: Maximum Hertz contact pressure a ball bearing takes statically (ISO 76), Pa.
-STATIC_PRESSURE_LIMIT_PA = 4.2e9
-
-
-def preload_limit_m(bearing) -> float:
-    """Largest preload (-clearance) whose ball load keeps p0 = 3 Q / (2 pi a b) <= 4.2 GPa.
-
-    The contact ellipse is Hamrock-Brewe's (seed eqs 17-18); the load from the Hertz law
-    (eq. 8) with inner and outer contacts in series.
-    """
-    from signatelec.bearing import raceway_radii
-    from signatelec.electrical import contact_ellipse
-
-    coef, n = law_coefficients(bearing, "hertz")
-    radii = raceway_radii(bearing)
-    e_eq = bearing.ball_material.plane_strain_modulus_pa
-    q_ref = 1000.0
-    q_limit = math.inf
-    for race in ("inner", "outer"):
-        _, _, r_eq, alpha = radii[race]
-        _, _, area = contact_ellipse(q_ref, r_eq, alpha, e_eq)
-        p0 = 1.5 * q_ref / area
-        q_limit = min(q_limit, q_ref * (STATIC_PRESSURE_LIMIT_PA / p0) ** 3)  # p0 ~ Q^(1/3)
-    compliance = coef[INNER] ** (-1.0 / n) + coef[OUTER] ** (-1.0 / n)
-    return q_limit ** (1.0 / n) * compliance

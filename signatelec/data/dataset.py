@@ -2,7 +2,8 @@
 
 ``signatelec generate SPEC.toml --out DIR`` (or :func:`generate`) expands the spec's design into
 traces, simulates each trace's scene, applies the measurement model
-(:mod:`signatelec.measurement`) and writes one small Parquet file per trace. The spec format and
+(:mod:`signatelec.measurement.model`) and writes one small Parquet file per trace. The spec format
+and
 the output schema are documented in ``datasets/README.md``; in short:
 
 Spec (TOML; ``[dataset]``, one or more ``[[design]]`` blocks, ``[measurement]``, ``[scene]``)::
@@ -65,9 +66,9 @@ from typing import Any
 
 import numpy as np
 
-from signatelec import __version__
-from signatelec.measurement import MeasurementError, MeasurementModel
-from signatelec.scene import Scene, SceneError, read_toml
+from signatelec._version import __version__
+from signatelec.config.scene import Scene, SceneError, read_toml
+from signatelec.measurement.model import MeasurementError, MeasurementModel
 
 #: Design kinds.
 DESIGN_KINDS = ("grid", "random", "latin_hypercube")
@@ -332,7 +333,7 @@ def spec_from_dict(data: dict, path: str = "<spec>") -> Spec:
     name = check.string("dataset.name", ds.get("name", Path(path).stem))
     description = check.string("dataset.description", ds.get("description", ""))
     seed = check.integer("dataset.seed", ds.get("seed", 0), 0, 2**63 - 1)
-    from signatelec.fidelity import FIDELITY_NAMES
+    from signatelec.engines.fidelity import FIDELITY_NAMES
 
     fidelity = check.string("dataset.fidelity", ds.get("fidelity", "dem"), FIDELITY_NAMES)
     duration = check.number(
@@ -594,15 +595,16 @@ def clearance_for_epsilon(
 ) -> float:
     """Radial clearance (m; < 0 a preload) whose quasi-static epsilon (seed eq. 15) is ``epsilon``.
 
-    0 < epsilon < 0.5: :func:`signatelec.plots.clearance_for_epsilon` (a clearance); 0.5: none;
+    0 < epsilon < 0.5: :func:`signatelec.physics.quasistatic.clearance_for_epsilon` (a clearance);
+    0.5: none;
     above 0.5 the same equilibrium (Hertz, centrifugal force and gravity, averaged over one ball
     spacing) solved for a preload, down to the static-pressure limit of
-    :func:`signatelec.dem.stability.preload_limit_m`. Raises :class:`EpsilonError`.
+    :func:`signatelec.physics.quasistatic.preload_limit_m`. Raises :class:`EpsilonError`.
     """
     if epsilon == 0.5:
         return 0.0
     if 0.0 < epsilon < 0.5:
-        from signatelec.plots import clearance_for_epsilon as positive
+        from signatelec.physics.quasistatic import clearance_for_epsilon as positive
 
         try:
             return positive(bearing, radial_load_n, omega_rad_s, epsilon)
@@ -613,8 +615,11 @@ def clearance_for_epsilon(
             ) from None
     from scipy.optimize import brentq
 
-    from signatelec.dem.stability import preload_limit_m
-    from signatelec.quasistatic import ball_angles_rad, solve_equilibrium_over_time
+    from signatelec.physics.quasistatic import (
+        ball_angles_rad,
+        preload_limit_m,
+        solve_equilibrium_over_time,
+    )
 
     z = bearing.n_balls
     angles = ball_angles_rad(z, np.linspace(0.0, 2.0 * math.pi / z, 8, endpoint=False))
@@ -681,8 +686,9 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
     """Simulate one trace and measure it: a record of labels and signals (never raises for a
     scene that is not allowed, a divergence or an unreachable epsilon: those give status
     "failed" and the error)."""
-    from signatelec.dem.simulate import DivergenceError, simulate
-    from signatelec.fidelity import apply_fidelity
+    from signatelec.engines.fidelity import apply_fidelity
+    from signatelec.engines.results import DivergenceError
+    from signatelec.engines.simulate import simulate
 
     cpu0 = time.thread_time()
     f = task.factors
@@ -942,8 +948,8 @@ def warm_up(ctx: TraceContext, *, imports: bool = True) -> float:
     The effect set (hence the kernel) depends on the effects, the bearing's friction and the
     fidelity's integrator, which every trace of a spec shares. Returns the seconds spent.
     """
-    from signatelec.dem.simulate import simulate
-    from signatelec.fidelity import apply_fidelity
+    from signatelec.engines.fidelity import apply_fidelity
+    from signatelec.engines.simulate import simulate
 
     t0 = time.perf_counter()
     with warnings.catch_warnings():
@@ -962,7 +968,7 @@ def warm_up(ctx: TraceContext, *, imports: bool = True) -> float:
             with contextlib.suppress(MeasurementError):
                 model.clean(t, sig["resistance_ohm"].to_numpy(), t[0], 8)
             if ctx.needs_epsilon:
-                import signatelec.plots  # noqa: F401  (matplotlib)
+                import signatelec.physics.quasistatic  # noqa: F401  (the clearance of an epsilon)
     return time.perf_counter() - t0
 
 
@@ -1001,7 +1007,7 @@ def _process_context():
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     mp = multiprocessing.get_context("forkserver")
-    mp.set_forkserver_preload(["signatelec._forkserver_preload"])
+    mp.set_forkserver_preload(["signatelec.data._forkserver_preload"])
     multiprocessing.forkserver.ensure_running()
     return mp
 

@@ -10,34 +10,32 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
-from signatelec.bearing import STANDARD_GRAVITY_M_S2, contact_properties
-from signatelec.contact import (
+from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, contact_properties
+from signatelec.config.scene import Scene, SceneError
+from signatelec.engines.dem import kernel as K
+from signatelec.engines.dem.build import KernelFlags, get_kernel
+from signatelec.engines.dem.stability import stability_limit
+from signatelec.engines.laws import scene_law
+from signatelec.engines.results import (
+    LOADED_FORCE_N,
+    MIN_SHIFT_M,
+    PHASES,
+    DivergenceError,
+    SimulationResult,
+    phase_times,
+)
+from signatelec.physics.contact import (
     critical_damping,
     hertz_critical_damping,
     mindlin_coefficient,
     tangential_stiffness_from_overlap,
 )
-from signatelec.dem import kernel_template as K
-from signatelec.dem.kernels import KernelFlags, get_kernel
-from signatelec.dem.stability import StabilityLimit, scene_law, stability_limit
-from signatelec.scene import Scene, SceneError
 
-
-class DivergenceError(RuntimeError):
-    """A run left the physical range; the message names the step, body and quantity."""
-
-
-PHASES = ("clearance", "load", "spin_up", "steady")
-#: A ball counts as loaded above this inner-raceway force; below it the force is round-off of a
-#: contact at its onset (a Hertz overlap of ~1e-11 m).
-LOADED_FORCE_N = 1e-6
-#: Smallest inner-ring shift for which the load parameter of eq. 15 is reported.
-MIN_SHIFT_M = 1e-9
 _CONTACT_NAMES = {
     0: "inner-raceway overlap",
     1: "outer-raceway overlap",
@@ -46,18 +44,6 @@ _CONTACT_NAMES = {
     4: "ball/ball overlap",
     -1: "position or velocity (not finite)",
 }
-
-
-def phase_times(scene: Scene) -> tuple[float, float, float]:
-    """Ends of the clearance, load and spin-up phases, s (a phase that is off has length 0)."""
-    pr, e = scene.procedure, scene.effects
-    t1 = pr.clearance_time_s if e.clearance_phase else 0.0
-    t2 = t1 + (pr.load_time_s if pr.load_ramp == "smooth" else 0.0)
-    t3 = t2 + (pr.spin_up_time_s if e.spin_up else 0.0)
-    if pr.load_ramp == "step":
-        # the load still waits for its phase, then comes at once
-        t2 = t1
-    return t1, t2, t3
 
 
 def kernel_parameters(scene: Scene) -> np.ndarray:
@@ -150,34 +136,13 @@ class KernelState:
             spin=np.zeros(z),
             spin_acc=np.zeros(z),
             xi=np.zeros((z, 4)),
-            roots=np.zeros((z, 20)),  # warm-start cache of kernel_template.rsqrt_warm
+            roots=np.zeros((z, 20)),  # warm-start cache of kernel.rsqrt_warm
             fcon=np.zeros((z, 6)),
             sched=np.zeros(4),
             energy=np.zeros(4),
             work2=np.zeros((3 * z + 1, 2)),
             status=np.zeros(4, np.int64),
         )
-
-
-@dataclass
-class SimulationResult:
-    """Outcome of :func:`simulate`: the scene, tables of balls and signals, timings."""
-
-    scene: Scene
-    balls: pd.DataFrame
-    signals: pd.DataFrame
-    timings: dict = field(default_factory=dict)
-    stability: StabilityLimit | None = None
-
-    def steady(self, table: str = "signals", settle_s: float = 0.0) -> pd.DataFrame:
-        """Rows of the steady-running phase, from ``settle_s`` after the set-up ends."""
-        df = getattr(self, table)
-        return df[df["time_s"] > self.scene.setup_time_s + settle_s + 1e-12]
-
-    def write(self, out_dir) -> None:
-        from signatelec.io import write_result
-
-        write_result(self, out_dir)
 
 
 def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -253,7 +218,7 @@ def _divergence_message(scene: Scene, status: np.ndarray) -> str:
 
 def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray) -> None:
     """Seed section 3 at every recorded instant: resistance, ball currents and potentials."""
-    from signatelec.electrical import bearing_electrics
+    from signatelec.physics.electrical import bearing_electrics
 
     scene = result.scene
     z = scene.bearing.n_balls
@@ -272,19 +237,13 @@ def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray)
         result.balls[name] = getattr(el, name).ravel()
 
 
-def simulate(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
+def simulate_dem(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
     """Simulate ``scene`` (default: the seed's scene) with the DEM kernel.
 
     Raises :class:`SceneError` when dt is above the stability limit (before running) and
-    :class:`DivergenceError` when the run leaves the physical range. A scene whose
-    ``numerics.fidelity`` is "quasistatic" goes to
-    :func:`signatelec.quasistatic_tier.simulate_quasistatic` (steady phase only, no time step).
+    :class:`DivergenceError` when the run leaves the physical range.
     """
     scene = scene or Scene()
-    if scene.numerics.fidelity == "quasistatic":
-        from signatelec.quasistatic_tier import simulate_quasistatic
-
-        return simulate_quasistatic(scene, progress=progress)
     limit = stability_limit(scene)
     if scene.numerics.dt_s > limit.dt_limit_s:
         raise SceneError(

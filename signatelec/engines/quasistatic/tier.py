@@ -1,6 +1,7 @@
 """Quasi-static tier: the DEM's steady-state tables from Harris' equilibrium, in milliseconds.
 
-:func:`simulate_quasistatic` returns a :class:`~signatelec.dem.simulate.SimulationResult` with the
+:func:`simulate_quasistatic` returns a :class:`~signatelec.engines.dem.run.SimulationResult` with
+the
 tables and columns of the DEM (``balls`` and ``signals``, electrical columns included) at the
 scene's sample rate, for the recorded instants of the steady phase only (``time_s`` after the
 spin-up; the DEM's recording grid ``k * record_every * dt_s``).
@@ -13,19 +14,22 @@ At each instant:
   kinematic speed ``omega R_inn / (R_inn + R_out)``; each ball spins at the rolling speed
   ``-omega_c r_p / R_b``;
 - the inner-ring shift ``s`` solves the 2D equilibrium ``sum_k Q_i,k(s) u_k = F`` of
-  :func:`signatelec.quasistatic.solve_equilibrium_over_time` (Harris 2001, 7.2-7.3): each ball
+  :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` (Harris 2001, 7.2-7.3): each
+  ball
   has its inner and outer contacts in series under the scene's contact law (Hertz, Harris or
   linear, with the DEM's coefficients), carries its centrifugal force (``effects.centrifugal``)
   and, with ``effects.gravity``, the radial part of its weight; the ring carries F_r and its own
   weight; the clearance (or preload) is the scene's final one (seed eq. 14);
 - the ball centre lies on its radius where its outer contact overlap is the solved one;
-- the electrical columns come from those loads by :func:`signatelec.electrical.bearing_electrics`
+- the electrical columns come from those loads by
+:func:`signatelec.physics.electrical.bearing_electrics`
   (seed section 3), exactly as the DEM's do.
 
 The equilibrium is solved by a small numba routine (:func:`solve_ring_equilibrium`): the same
-equations and Newton method as :mod:`signatelec.quasistatic`, one instant after another, each
+equations and Newton method as :mod:`signatelec.physics.quasistatic`, one instant after another,
+each
 started from the previous one, so the whole steady phase costs about a millisecond. Instants it
-does not converge on go to :func:`signatelec.quasistatic.solve_equilibrium_over_time`;
+does not converge on go to :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time`;
 ``tests/test_quasistatic_tier.py`` checks the two agree to 1e-9.
 
 What the tier leaves out (everything dynamic):
@@ -69,15 +73,15 @@ import numpy as np
 import pandas as pd
 from numba import njit
 
-from signatelec.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2
-from signatelec.dem.simulate import PHASES, SimulationResult, phase_times
-from signatelec.dem.stability import scene_law
-from signatelec.quasistatic import (
+from signatelec.config.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2
+from signatelec.config.scene import Scene
+from signatelec.engines.laws import scene_law
+from signatelec.engines.results import PHASES, SimulationResult, phase_times
+from signatelec.physics.quasistatic import (
     ACCEPTED_RTOL,
     epsilon_from_shift,
     solve_equilibrium_over_time,
 )
-from signatelec.scene import Scene
 
 _EPS = float(np.finfo(float).eps)
 #: Equilibrium residual relative to the load carried: forces to ~1e-10, far below what the tier
@@ -139,7 +143,7 @@ def steady_record_times_s(scene: Scene) -> np.ndarray:
     return t[t > phase_times(scene)[2]]
 
 
-# --- equilibrium: numba version of signatelec.quasistatic's solver --------------------------------
+# --- equilibrium: numba version of signatelec.physics.quasistatic's solver ------------------------
 
 
 @njit(cache=True, inline="always")
@@ -393,14 +397,15 @@ class RingEquilibrium:
         self.inner_force_n = inner_force_n  # (T, Z)
         self.outer_force_n = outer_force_n  # (T, Z)
         self.outer_overlap_m = outer_overlap_m  # (T, Z), signed (< 0: gap to the outer race)
-        self.fallback_instants = fallback  # instants solved by signatelec.quasistatic
+        self.fallback_instants = fallback  # instants solved by signatelec.physics.quasistatic
 
 
 def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingEquilibrium:
     """Quasi-static equilibrium of the scene's inner ring at ball angles (T, Z).
 
-    The equations of :func:`signatelec.quasistatic.solve_equilibrium_over_time` with the scene's
-    contact law (the DEM's coefficients, :func:`signatelec.dem.stability.scene_law`), clearance,
+    The equations of :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` with the
+    scene's
+    contact law (the DEM's coefficients, :func:`signatelec.engines.laws.scene_law`), clearance,
     speed, centrifugal force and gravity, solved instant after instant by a compiled damped
     Newton; instants it does not bring to ``ACCEPTED_RTOL`` are solved by that function.
     ``unit_xy``: ``(sin psi, -cos psi)`` when the caller has them.
@@ -475,7 +480,8 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingEq
 def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
     """The steady phase of ``scene`` by the quasi-static tier (see the module docstring).
 
-    Same tables and columns as :func:`signatelec.dem.simulate.simulate` (``progress`` is accepted
+    Same tables and columns as :func:`signatelec.engines.simulate.simulate` (``progress`` is
+    accepted
     for the same signature and ignored), rows of the steady phase only. ``timings`` holds
     ``run_s`` (equilibrium), ``electrical_s``, ``total_s``, ``n_instants`` and ``compile_s``
     (the first call of a process loads the compiled solver); ``n_steps = 0``: no time step.
@@ -548,7 +554,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "fallback_instants": int(eq.fallback_instants.size),
     }
     if e.electrical:
-        from signatelec.electrical import bearing_electrics
+        from signatelec.physics.electrical import bearing_electrics
 
         t0 = time.perf_counter()
         # theta of eq. 16 is pi: each ball lies on its radius and the ring shift (microns, beside a

@@ -1,0 +1,58 @@
+"""What every engine returns: the set-up phases and the result tables of a run.
+
+Both engines (the DEM in :mod:`signatelec.engines.dem` and the quasi-static tier in
+:mod:`signatelec.engines.quasistatic`) return a :class:`SimulationResult` with the same columns.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import pandas as pd
+
+from signatelec.config.scene import Scene
+
+
+class DivergenceError(RuntimeError):
+    """A run left the physical range; the message names the step, body and quantity."""
+
+
+PHASES = ("clearance", "load", "spin_up", "steady")
+#: A ball counts as loaded above this inner-raceway force; below it the force is round-off of a
+#: contact at its onset (a Hertz overlap of ~1e-11 m).
+LOADED_FORCE_N = 1e-6
+#: Smallest inner-ring shift for which the load parameter of eq. 15 is reported.
+MIN_SHIFT_M = 1e-9
+
+
+def phase_times(scene: Scene) -> tuple[float, float, float]:
+    """Ends of the clearance, load and spin-up phases, s (a phase that is off has length 0)."""
+    pr, e = scene.procedure, scene.effects
+    t1 = pr.clearance_time_s if e.clearance_phase else 0.0
+    t2 = t1 + (pr.load_time_s if pr.load_ramp == "smooth" else 0.0)
+    t3 = t2 + (pr.spin_up_time_s if e.spin_up else 0.0)
+    if pr.load_ramp == "step":
+        # the load still waits for its phase, then comes at once
+        t2 = t1
+    return t1, t2, t3
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of :func:`simulate`: the scene, tables of balls and signals, timings."""
+
+    scene: Scene
+    balls: pd.DataFrame
+    signals: pd.DataFrame
+    timings: dict = field(default_factory=dict)
+    stability: object | None = None  # engines.dem.stability.StabilityLimit for a DEM run
+
+    def steady(self, table: str = "signals", settle_s: float = 0.0) -> pd.DataFrame:
+        """Rows of the steady-running phase, from ``settle_s`` after the set-up ends."""
+        df = getattr(self, table)
+        return df[df["time_s"] > self.scene.setup_time_s + settle_s + 1e-12]
+
+    def write(self, out_dir) -> None:
+        from signatelec.io import write_result
+
+        write_result(self, out_dir)
