@@ -21,25 +21,25 @@ from hypothesis import strategies as st
 
 from signatelec.cli import main
 from signatelec.config.scene import Scene
-from signatelec.data.dataset import (
+from signatelec.data import (
     LHS_KEY,
     MANIFEST_FILE,
     STATUS_FAILED,
     STATUS_OK,
     SpecError,
-    clearance_for_epsilon,
     design_traces,
     done_trace_ids,
     generate,
     load_spec,
     read_dataset,
-    regime_of,
     spec_from_dict,
     trace_rng,
     trace_seed_sequence,
 )
 from signatelec.io import read_metadata
 from signatelec.measurement.model import MeasurementModel
+from signatelec.physics.quasistatic import clearance_for_epsilon
+from signatelec.physics.regimes import regime_of
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -341,7 +341,7 @@ def test_noise_drift_offset_and_quantisation():
     u=st.floats(0, 1, exclude_max=True),
 )
 def test_a_drawn_range_stays_inside_it(lo, width, u):
-    from signatelec.data.dataset import Factor
+    from signatelec.data import Factor
 
     f = Factor("clearance_m", "range", low=lo, high=lo + width)
     assert lo <= f.from_unit(u) <= lo + width
