@@ -112,6 +112,9 @@ def _representable(value: Any) -> bool:
     return math.isfinite(value)
 
 
+_FLOAT_RANGE = f"must be a finite number (at most {sys.float_info.max:.4g} in magnitude)"
+
+
 class _Fields(dict):
     """Format fields of an ``allowed`` text: the given ones, then the checker's limits."""
 
@@ -198,7 +201,7 @@ class Checker:
         if row.kind in (NUMBER, INTEGER):
             self._range(row, key, value)
             if row.kind == NUMBER and not _representable(value):
-                self._refuse(row, key, value, "must be a finite number")
+                self._refuse(row, key, value, _FLOAT_RANGE)
         if row.rule is not None and not self.limit(row.rule):
             self._refuse(row, key, value, "is not allowed")
         if row.kind == NUMBER:
@@ -414,7 +417,7 @@ SCENE = (
         "dt_s",
         NUMBER,
         low=DT_MIN_S,
-        allowed=f"must be >= {DT_MIN_S:g} s (duration_s / dt_s steps must stay countable)",
+        allowed=f"must be >= {DT_MIN_S:g} s (the time loop counts its steps in 64 bits)",
     ),
     Constraint("numerics", "dt_s", NUMBER, high=DT_MAX_S, allowed=f"must be <= {DT_MAX_S:g} s"),
     Constraint(
