@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import numbers
 import sys
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, NoReturn
 
@@ -116,13 +116,18 @@ _FLOAT_RANGE = f"must be a finite number (at most {sys.float_info.max:.4g} in ma
 
 
 class _Fields(dict):
-    """Format fields of an ``allowed`` text: the given ones, then the checker's limits."""
+    """Format fields of a row's ``allowed`` text, each resolved when the text names it: the
+    value, the row's bounds and choices, then any limit of the checker."""
 
-    def __init__(self, checker: Checker, given: dict):
-        super().__init__(given)
-        self.checker = checker
+    def __init__(self, checker: Checker, row: Constraint, value: Any):
+        super().__init__(value=value)
+        self.checker, self.row = checker, row
 
     def __missing__(self, name: str) -> Any:
+        if name in ("low", "high"):
+            return self.checker._resolve(getattr(self.row, name))
+        if name == "choices":
+            return ", ".join(self.checker._resolve(self.row.choices))
         return self.checker.limit(Limit(name))
 
 
@@ -236,13 +241,7 @@ class Checker:
     def _refuse(self, row: Constraint, key: str, value: Any, generated: str) -> NoReturn:
         if not row.allowed:
             self.fail(key, value, generated)
-        fields = {
-            "value": value,
-            "low": self._resolve(row.low),
-            "high": self._resolve(row.high),
-            "choices": ", ".join(self._resolve(row.choices)),
-        }
-        self.fail(key, value, row.allowed.format_map(_Fields(self, fields)))
+        self.fail(key, value, row.allowed.format_map(_Fields(self, row, value)))
 
 
 def _range_text(row: Constraint, low: Any, high: Any) -> str:
@@ -257,20 +256,10 @@ def _range_text(row: Constraint, low: Any, high: Any) -> str:
     return f"must be {noun}{'<' if row.high_open else '<='} {high:g}"
 
 
-def rows_of(table: Iterable[Constraint], section: str, key: str) -> list[Constraint]:
-    return [row for row in table if row.section == section and row.key == key]
-
-
 def row_of(table: Iterable[Constraint], section: str, key: str) -> Constraint:
     """The one row of ``section.key`` in ``table``."""
-    (row,) = rows_of(table, section, key)
+    (row,) = [row for row in table if row.section == section and row.key == key]
     return row
-
-
-def check_all(checker: Checker, table: Iterable[Constraint], get: Callable[[str, str], Any]):
-    """Check every row of ``table`` in order; ``get(section, key)`` gives the value."""
-    for row in table:
-        checker.check(row, get(row.section, row.key))
 
 
 # --- the bearing (signatelec.config.bearing) ---------------------------------------------------
