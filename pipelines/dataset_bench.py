@@ -14,7 +14,7 @@ model's 2 x 2 ms filter guards), 10 kHz output with noise, drift, offset and qua
 Each case runs with 1 and then 2 local worker processes, every run in a fresh Python process
 (as the CLI would: its own forkserver, imports and kernel load from the warm on-disk cache;
 compilation is not measured), into an empty directory. Reported per run: wall time from the
-call of :func:`signatelec.data.dataset.generate` to its return (start-up included), the steady
+call of :func:`signatelec.data.generate` to its return (start-up included), the steady
 throughput between the first and the last trace written (start-up excluded), the CPU time of
 the run's process tree, and what the rest of the machine did meanwhile (busy CPU from
 /proc/stat minus our tree's, and the load average), since other jobs on the same 2 cores make
@@ -75,7 +75,7 @@ def run_one(case: str, workers: int, n: int, out: str) -> dict:
     """In a child process: generate the case and report its timings (JSON on stdout)."""
     import tomllib
 
-    from signatelec.data.dataset import generate, spec_from_dict
+    from signatelec.data import generate, spec_from_dict
 
     spec = spec_from_dict(
         tomllib.loads(SPEC.format(case=case, fidelity=CASES[case], n=n)), f"<bench {case}>"
@@ -192,7 +192,7 @@ def main() -> None:
     import tomllib
 
     from signatelec import __version__
-    from signatelec.data.dataset import spec_from_dict, warm_up
+    from signatelec.data import spec_from_dict, warm_up
 
     for case, fidelity in CASES.items():  # compile the kernels now: not part of any run
         spec = spec_from_dict(tomllib.loads(SPEC.format(case=case, fidelity=fidelity, n=1)))

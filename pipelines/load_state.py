@@ -92,7 +92,7 @@ def log(msg: str) -> None:
 
 
 def _spec(quick: bool, test: bool):
-    from signatelec.data.dataset import spec_from_dict
+    from signatelec.data import spec_from_dict
 
     data = tomllib.loads(SPEC.read_text())
     if test:
@@ -110,7 +110,7 @@ def _spec(quick: bool, test: bool):
 
 
 def generate(out: Path, quick: bool) -> tuple[Path, Path]:
-    from signatelec.data.dataset import generate as run
+    from signatelec.data import generate as run
 
     dirs = []
     for test in (False, True):
@@ -127,7 +127,7 @@ def generate(out: Path, quick: bool) -> tuple[Path, Path]:
 
 
 def load_runs(path: Path) -> pd.DataFrame:
-    from signatelec.data.dataset import read_dataset
+    from signatelec.data import read_dataset
 
     runs = read_dataset(path)
     failed = runs[runs["status"] != "ok"]
@@ -721,8 +721,8 @@ def ship_table(train: pd.DataFrame) -> pd.DataFrame:
 def write_example_trace(path: Path) -> None:
     """A measured-like trace: paper-fidelity DEM, F_r = 7000 N, clearance +8 um, 500 rad/s,
     0.1 s at 20 kHz, 0.2 % noise, 0.05 % drift, +12 uOhm offset, 0.1 uOhm steps."""
-    from signatelec.data.dataset import generate as run
-    from signatelec.data.dataset import read_dataset, spec_from_dict
+    from signatelec.data import generate as run
+    from signatelec.data import read_dataset, spec_from_dict
 
     spec = spec_from_dict(
         {

@@ -292,8 +292,8 @@ def generate(spec_file, out, workers, scheduler, quiet):
 
     A rerun of the same command skips the traces already written (a killed job resumes).
     """
-    from signatelec.data.dataset import DatasetDirError, SpecError, load_spec
-    from signatelec.data.dataset import generate as run_generate
+    from signatelec.data import DatasetDirError, SpecError, load_spec
+    from signatelec.data import generate as run_generate
 
     try:
         spec = load_spec(spec_file)

@@ -1,4 +1,4 @@
-"""Bad input gets a clear answer and loses nothing (issue 7).
+"""Bad input gets a clear answer and loses nothing.
 
 Every malformed input below goes through the command line (``signatelec.cli.main`` in-process,
 two through a subprocess) and must give:
@@ -35,6 +35,9 @@ class Case:
     args: tuple[str, ...]
     expected: tuple[str, ...]  # the field and what is allowed, as they appear in the message
 
+
+#: A TOML integer of 400 digits: far beyond the float range (~1.8e308).
+HUGE = "1" + "0" * 399
 
 SCENE_CASES = {
     # structure
@@ -159,6 +162,44 @@ SCENE_CASES = {
         (),
         ("numerics.dt_s", "above the stability limit", "use dt_s <="),
     ),
+    # numbers checked before any conversion: a 400-digit integer, subnormal and tiny time steps
+    "integer_of_400_digits": Case(
+        f"[operating]\nradial_load_n = {HUGE}\n",
+        (),
+        ("operating.radial_load_n = 1000", "must be a finite number"),
+    ),
+    "duration_of_400_digits": Case(
+        f"[numerics]\nduration_s = {HUGE}\n",
+        (),
+        ("numerics.duration_s = 1000", "must be a finite number"),
+    ),
+    "ball_count_of_400_digits": Case(
+        f"[bearing]\nn_balls = {HUGE}\n",
+        (),
+        ("bearing.n_balls = 1000", "must be an integer >= 3 and <= 10000"),
+    ),
+    "radius_of_400_digits": Case(
+        f"[bearing]\nball_radius_m = {HUGE}\n",
+        (),
+        ("bearing.ball_radius_m = 1000", "must be a finite number > 0"),
+    ),
+    "modulus_of_400_digits": Case(
+        f"[bearing.cage_material]\nname = 'x'\nyoungs_modulus_pa = {HUGE}\npoisson = 0.3\n"
+        "density_kg_m3 = 1140.0\n",
+        (),
+        ("bearing.cage_material.youngs_modulus_pa = 1000", "must be a finite number in [1e+06"),
+    ),
+    "dt_subnormal": Case(
+        "[numerics]\ndt_s = 5e-324\n", (), ("numerics.dt_s = 5e-324", "must be >= 1e-12 s")
+    ),
+    "dt_tiny": Case(
+        "[numerics]\ndt_s = 1e-300\n", (), ("numerics.dt_s = 1e-300", "must be >= 1e-12 s")
+    ),
+    "sample_rate_subnormal": Case(
+        "[numerics]\nsample_rate_hz = 5e-324\n",
+        (),
+        ("numerics.sample_rate_hz = 5e-324", "must be >= 1/duration_s"),
+    ),
     # files
     "not_toml": Case("this is not = = TOML [\n", (), ("not valid TOML",)),
     "binary_garbage": Case(bytes(range(256)) * 8, (), ("is not UTF-8 text", "TOML file")),
@@ -179,6 +220,9 @@ OPTION_CASES = {
     ),
     "dt_above_stability_limit": Case(
         None, ("--dt", "1e-5"), ("--dt 1e-05", "above the stability limit", "use dt_s <=")
+    ),
+    "dt_subnormal": Case(
+        None, ("--dt", "5e-324"), ("--dt 5e-324", "numerics.dt_s", "must be >= 1e-12 s")
     ),
     "unknown_option": Case(None, ("--load", "5820"), ("No such option", "--load", "--radial-load")),
 }

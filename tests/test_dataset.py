@@ -1,4 +1,4 @@
-"""The synthetic-data generator (issue 5): specs, designs, seeds, measurement, Parquet output,
+"""The synthetic-data generator: specs, designs, seeds, measurement, Parquet output,
 failures, local and Dask execution, and resuming after kill -9."""
 
 from __future__ import annotations
@@ -21,25 +21,25 @@ from hypothesis import strategies as st
 
 from signatelec.cli import main
 from signatelec.config.scene import Scene
-from signatelec.data.dataset import (
+from signatelec.data import (
     LHS_KEY,
     MANIFEST_FILE,
     STATUS_FAILED,
     STATUS_OK,
     SpecError,
-    clearance_for_epsilon,
     design_traces,
     done_trace_ids,
     generate,
     load_spec,
     read_dataset,
-    regime_of,
     spec_from_dict,
     trace_rng,
     trace_seed_sequence,
 )
 from signatelec.io import read_metadata
 from signatelec.measurement.model import MeasurementModel
+from signatelec.physics.quasistatic import clearance_for_epsilon
+from signatelec.physics.regimes import regime_of
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -129,6 +129,9 @@ factors.clearance_m = {min = -5e-6, max = 5e-6, levels = 3}
 noise_fraction = [0.0, 0.01]
 """
 
+#: A TOML integer of 400 digits: far beyond the float range (~1.8e308).
+HUGE = "1" + "0" * 399
+
 BAD_SPECS = [
     ("[dataset]\nseeed = 1\n" + GOOD.split("[dataset]\n", 1)[1], "dataset.seeed = 1: unknown key"),
     (GOOD.replace("seed = 1", "seed = 1.5"), "dataset.seed = 1.5: must be an integer"),
@@ -174,6 +177,19 @@ BAD_SPECS = [
     ),
     ("[dataset]\nseed = 1\n", "design = None: at least one [[design]] block is needed"),
     ("[dataset\nseed = 1\n", "not valid TOML"),
+    # numbers are range-checked before any conversion: 400-digit integers, tiny time steps
+    (GOOD.replace("seed = 1", f"seed = {HUGE}"), "must be an integer in [0, 9223372036854775807]"),
+    (GOOD.replace("duration_s = 0.01", f"duration_s = {HUGE}"), "duration_s = 1000"),
+    (GOOD.replace("duration_s = 0.01", f"duration_s = {HUGE}"), ": must be in (0, 10]"),
+    (GOOD.replace("0.1, 0.2]", f"0.1, {HUGE}]"), "values[1] = 1000"),
+    (GOOD.replace("0.1, 0.2]", f"0.1, {HUGE}]"), ": must be a finite number"),
+    (GOOD.replace("levels = 3", f"levels = {HUGE}"), "must be an integer in [1, 10000]"),
+    (GOOD.replace("[0.0, 0.01]", f"[0.0, {HUGE}]"), "noise_fraction[1] = 1000"),
+    (GOOD + f"oversample = {HUGE}\n", "must be an integer in [1, 64]"),
+    (GOOD + f"[scene.bearing]\nn_balls = {HUGE}\n", "scene.bearing.n_balls = 1000"),
+    (GOOD + f"[scene.operating]\nomega_rad_s = {HUGE}\n", "omega_rad_s = 1000"),
+    (GOOD + "[scene.numerics]\ndt_s = 5e-324\n", "scene.numerics.dt_s = 5e-324: must be >="),
+    (GOOD + "[scene.numerics]\ndt_s = 1e-300\n", "scene.numerics.dt_s = 1e-300: must be >="),
 ]
 
 
@@ -341,7 +357,7 @@ def test_noise_drift_offset_and_quantisation():
     u=st.floats(0, 1, exclude_max=True),
 )
 def test_a_drawn_range_stays_inside_it(lo, width, u):
-    from signatelec.data.dataset import Factor
+    from signatelec.data import Factor
 
     f = Factor("clearance_m", "range", low=lo, high=lo + width)
     assert lo <= f.from_unit(u) <= lo + width
@@ -502,7 +518,8 @@ def test_labels_of_a_generated_dataset(dask_dataset):
     assert (df.status == STATUS_OK).all(), df.error.tolist()
     grid = df[df.design == 0]
     assert list(grid.regime.astype(str)) == ["preload", "zero", "clearance"] * 2
-    assert (grid.radial_load_n / 29100.0).round(6).tolist() == [0.15] * 3 + [0.3] * 3
+    c_r = 29100.0  # NSK's basic dynamic load rating of the 6208 (seed 2.2.2)
+    assert (grid.radial_load_n / c_r).round(6).tolist() == [0.15] * 3 + [0.3] * 3
     # epsilon is measured by the run (seed eq. 15): 0.5 without clearance, above with preload
     assert np.allclose(df.epsilon[df.clearance_m == 0.0], 0.5)
     assert (df.epsilon[df.regime == "preload"] > 0.5).all()

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, fields, replace
 
-import numpy as np
+from signatelec.config.constraints import BEARING, MATERIAL, Checker
 
 # Contact-type indices, shared by the kernels, the stability estimate and the tests.
 INNER, OUTER, BALL_CAGE, CAGE_WALL, BALL_BALL = range(5)
@@ -186,94 +186,41 @@ def _material_from_dict(data: dict, where: str) -> Material:
 
 
 def validate_bearing(b: Bearing, section: str = "bearing") -> None:
-    """Raise :class:`BearingError` naming the first non-physical field."""
+    """Raise :class:`BearingError` naming the first non-physical field: the rows of
+    :data:`signatelec.config.constraints.BEARING` and, per material, of ``MATERIAL``."""
 
-    def bad(key: str, value, allowed: str) -> BearingError:
-        return BearingError(f"{section}.{key} = {value!r}: {allowed}")
+    def balls_fit() -> bool:
+        # balls and cage balls alternate on the pitch circle: neighbours 2 pi / (2 Z) apart
+        chord = 2.0 * b.pitch_radius_m * math.sin(math.pi / (2 * b.n_balls))
+        return chord >= b.ball_radius_m + b.cage_ball_radius_m
 
-    if not isinstance(b.name, str):
-        raise bad("name", b.name, "must be a string")
-    if isinstance(b.n_balls, bool) or not isinstance(b.n_balls, int | np.integer):
-        raise bad("n_balls", b.n_balls, "must be an integer >= 3")
-    if b.n_balls < 3:
-        raise bad("n_balls", b.n_balls, "must be an integer >= 3")
-    positive = (
-        "outer_race_radius_m",
-        "inner_race_radius_m",
-        "outer_groove_radius_m",
-        "inner_groove_radius_m",
-        "ball_radius_m",
-        "cage_ball_radius_m",
-        "dynamic_load_rating_n",
-        "inner_ring_mass_kg",
-        "electrical_conductivity_s_m",
+    def zero_clearance_outer_m() -> float:
+        return b.inner_race_radius_m + 2.0 * b.ball_radius_m
+
+    # limits are evaluated when a row needs them, after the rows that check their inputs
+    check = Checker(
+        BearingError,
+        limits={
+            "ball_radius_m": lambda: b.ball_radius_m,
+            "cage_ball_radius_m": lambda: b.cage_ball_radius_m,
+            "pitch_radius_m": lambda: b.pitch_radius_m,
+            "zero_clearance_outer_race_radius_m": zero_clearance_outer_m,
+            "zero_clearance_geometry": lambda: (
+                abs(b.outer_race_radius_m - zero_clearance_outer_m()) <= 1e-9
+            ),
+            "balls_fit": balls_fit,
+        },
     )
-    for key in positive:
-        v = getattr(b, key)
-        if isinstance(v, bool) or not isinstance(v, int | float | np.floating):
-            raise bad(key, v, "must be a number > 0")
-        if not math.isfinite(v) or v <= 0.0:
-            raise bad(key, v, "must be a finite number > 0")
-    mu = b.friction_coefficient
-    if (
-        isinstance(mu, bool)
-        or not isinstance(mu, int | float)
-        or not math.isfinite(mu)
-        or not 0.0 <= mu <= 2.0
-    ):
-        raise bad("friction_coefficient", mu, "must be a finite number in [0, 2]")
+    for row in BEARING:
+        check.check(row, getattr(b, row.key), f"{section}.{row.key}")
     for mat_key in ("ball_material", "cage_material"):
         m = getattr(b, mat_key)
         if not isinstance(m, Material):
-            raise bad(mat_key, m, f"must be one of {', '.join(MATERIALS)} or a Material")
-        if not isinstance(m.name, str):
-            raise bad(f"{mat_key}.name", m.name, "must be a string")
-        for attr, lo, hi in (
-            ("youngs_modulus_pa", 1e6, 1e13),
-            ("poisson", 0.0, 0.4999),
-            ("density_kg_m3", 1.0, 1e5),
-        ):
-            v = getattr(m, attr)
-            if (
-                isinstance(v, bool)
-                or not isinstance(v, int | float)
-                or not math.isfinite(v)
-                or not lo <= v <= hi
-            ):
-                raise bad(f"{mat_key}.{attr}", v, f"must be a finite number in [{lo:g}, {hi:g}]")
-    gap = b.outer_race_radius_m - b.inner_race_radius_m - 2.0 * b.ball_radius_m
-    if abs(gap) > 1e-9:
-        raise bad(
-            "outer_race_radius_m",
-            b.outer_race_radius_m,
-            f"must equal inner_race_radius_m + 2 ball_radius_m = "
-            f"{b.inner_race_radius_m + 2 * b.ball_radius_m:.6g} m (zero-clearance geometry, "
-            "seed eq. 14); set a clearance or preload with clearance_m",
-        )
-    if b.inner_groove_radius_m <= b.ball_radius_m:
-        raise bad(
-            "inner_groove_radius_m",
-            b.inner_groove_radius_m,
-            f"must exceed ball_radius_m = {b.ball_radius_m:g} m (deep groove, seed 2.2)",
-        )
-    if b.outer_groove_radius_m <= b.ball_radius_m:
-        raise bad(
-            "outer_groove_radius_m",
-            b.outer_groove_radius_m,
-            f"must exceed ball_radius_m = {b.ball_radius_m:g} m (deep groove, seed 2.2)",
-        )
-    # Balls and cage balls alternate on the pitch circle: neighbours 2 pi / (2 Z) apart.
-    chord = 2.0 * b.pitch_radius_m * math.sin(math.pi / (2 * b.n_balls))
-    if chord < b.ball_radius_m + b.cage_ball_radius_m:
-        raise bad(
-            "n_balls",
-            b.n_balls,
-            f"{b.n_balls} balls of radius {b.ball_radius_m:g} m and cage balls of radius "
-            f"{b.cage_ball_radius_m:g} m do not fit on the pitch circle of radius "
-            f"{b.pitch_radius_m:g} m (need 2 r_p sin(pi/2Z) >= R_b + R_c)",
-        )
-    if b.cage_ball_radius_m >= b.ball_radius_m:
-        raise bad("cage_ball_radius_m", b.cage_ball_radius_m, "must be smaller than ball_radius_m")
+            check.fail(
+                f"{section}.{mat_key}", m, f"must be one of {', '.join(MATERIALS)} or a Material"
+            )
+        for row in MATERIAL:
+            check.check(row, getattr(m, row.key), f"{section}.{mat_key}.{row.key}")
 
 
 # --- equivalent quantities (seed eqs 12-13, table 2) -----------------------------------------

@@ -16,6 +16,7 @@ TOML layout (every section and key optional; defaults are the seed's scene, sect
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import tomllib
@@ -23,8 +24,18 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from signatelec.config.bearing import Bearing, BearingError
-from signatelec.physics.contact import CONTACT_LAWS
+from signatelec.config.bearing import INNER, OUTER, Bearing, BearingError
+from signatelec.config.constraints import (
+    BOOLEAN,
+    CHOICE,
+    CLEARANCE_LIMIT_FRACTION,
+    NUMBER,
+    OVERLAP_LIMIT_FRACTION,
+    SCENE,
+    Checker,
+    Constraint,
+)
+from signatelec.physics.contact import CONTACT_LAWS, hertz_normal_force, law_coefficients
 
 
 class SceneError(ValueError):
@@ -168,24 +179,21 @@ class Scene:
             "effects": Effects,
             "numerics": Numerics,
         }
+        check = Checker(SceneError)
         if not isinstance(data, dict):
-            raise SceneError(f"scene = {data!r}: must be a table of sections")
+            check.fail("scene", data, "must be a table of sections")
+        check.keys("", data, ["bearing", *sections], noun="section")
         kwargs: dict[str, Any] = {}
         for name, value in data.items():
             if name == "bearing":
-                if not isinstance(value, dict):
-                    raise SceneError(f"bearing = {value!r}: must be a table")
                 try:
-                    kwargs["bearing"] = Bearing.from_dict(value)
+                    kwargs["bearing"] = Bearing.from_dict(check.table(name, value))
                 except BearingError as exc:
                     raise SceneError(str(exc)) from None
                 except TypeError as exc:
                     raise SceneError(f"bearing: {exc}") from None
-            elif name in sections:
-                kwargs[name] = _section(name, sections[name], value)
             else:
-                allowed = ", ".join(["bearing", *sections])
-                raise SceneError(f"{name} = {_short(value)}: unknown section; allowed: {allowed}")
+                kwargs[name] = _section(name, sections[name], value)
         return cls(**kwargs)
 
     @classmethod
@@ -222,158 +230,95 @@ def read_toml(path: str | Path, label: str, noun: str, error: type[ValueError]) 
         raise error(f"{label}: not valid TOML ({exc})") from None
 
 
-def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) < 60 else text[:57] + "..."
+@functools.cache
+def type_row(section: str, f) -> Constraint | None:
+    """The type rule of a scene key, from its dataclass field: one of its choices, true or
+    false, or a number (the ranges are rows of :data:`signatelec.config.constraints.SCENE`)."""
+    if (section, f.name) in _CHOICES:
+        return Constraint(section, f.name, CHOICE, choices=_CHOICES[(section, f.name)])
+    if isinstance(f.default, bool):
+        return Constraint(section, f.name, BOOLEAN)
+    if isinstance(f.default, float):
+        return Constraint(section, f.name, NUMBER)
+    return None
 
 
 def _section(name: str, cls: type, data: Any) -> Any:
-    if not isinstance(data, dict):
-        raise SceneError(f"{name} = {_short(data)}: must be a table")
-    known = {f.name: f for f in fields(cls)}
-    for key, value in data.items():
-        if key not in known:
-            raise SceneError(
-                f"{name}.{key} = {_short(value)}: unknown key; allowed: {', '.join(known)}"
-            )
-        default = known[key].default
-        where = f"{name}.{key} = {_short(value)}"
-        if isinstance(default, bool):
-            if not isinstance(value, bool):
-                raise SceneError(f"{where}: must be true or false")
-        elif isinstance(default, float):
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise SceneError(f"{where}: must be a number")
-        elif isinstance(default, str) and not isinstance(value, str):
-            raise SceneError(f"{where}: must be one of {', '.join(_CHOICES[(name, key)])}")
-    converted = {k: float(v) if isinstance(known[k].default, float) else v for k, v in data.items()}
+    """A scene section from its TOML table: known keys, each of its type, numbers as floats (a
+    number is checked before it is converted)."""
+    check = Checker(SceneError)
+    check.keys(name, check.table(name, data), [f.name for f in fields(cls)])
+    rows = {f.name: type_row(name, f) for f in fields(cls)}
+    converted = {
+        key: value if rows[key] is None else check.check(rows[key], value)
+        for key, value in data.items()
+    }
     return cls(**converted)
 
 
-def _check(ok: bool, key: str, value: Any, allowed: str) -> None:
-    if not ok:
-        raise SceneError(f"{key} = {_short(value)}: {allowed}")
+# --- named limits of the scene table (physics rules) -------------------------------------------
 
 
-def _finite(key: str, value: Any) -> None:
-    _check(
-        isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value),
-        key,
-        value,
-        "must be a finite number",
-    )
-
-
-#: Largest Hertz overlap, as a fraction of the ball radius, that a scene's static ball load may
-#: ask for: half the 10 % at which the DEM stops (a sudden load overshoots ~1.6x in overlap).
-OVERLAP_LIMIT_FRACTION = 0.05
-
-
+@functools.lru_cache(maxsize=32)
 def ball_load_limit_n(bearing: Bearing) -> float:
     """Ball/raceway force whose Hertz overlap is OVERLAP_LIMIT_FRACTION of the ball radius, N.
 
     The smaller of the inner and outer contacts (seed eqs 6, 8, 12-13), whatever the scene's law.
     """
-    from signatelec.config.bearing import INNER, OUTER
-    from signatelec.physics.contact import hertz_normal_force, law_coefficients
-
     coef, _ = law_coefficients(bearing, "hertz")
     overlap = OVERLAP_LIMIT_FRACTION * bearing.ball_radius_m
     return float(min(hertz_normal_force(overlap, coef[i]) for i in (INNER, OUTER)))
 
 
+def radial_load_limit_n(bearing: Bearing) -> float:
+    """F_r whose Stribeck largest ball load 4.37 F_r / Z reaches :func:`ball_load_limit_n`."""
+    return ball_load_limit_n(bearing) * bearing.n_balls / 4.37
+
+
+def omega_limit_rad_s(bearing: Bearing) -> float:
+    """Inner-ring speed whose ball centrifugal force m r_p omega_c^2 reaches
+    :func:`ball_load_limit_n` (cage speed omega_c = omega R_inn / (R_inn + R_out))."""
+    return (
+        math.sqrt(ball_load_limit_n(bearing) / (bearing.ball_mass_kg * bearing.pitch_radius_m))
+        * (bearing.inner_race_radius_m + bearing.outer_race_radius_m)
+        / bearing.inner_race_radius_m
+    )
+
+
+@functools.lru_cache(maxsize=32)
+def preload_limit_m(bearing: Bearing) -> float:
+    """Largest preload (ISO 76 static pressure): signatelec.physics.quasistatic.preload_limit_m."""
+    from signatelec.physics.quasistatic import preload_limit_m as limit
+
+    return limit(bearing)
+
+
+def scene_limits(scene: Scene) -> dict[str, Any]:
+    """The limits that rows of the scene table name, as functions of ``scene``."""
+    b, nu = scene.bearing, scene.numerics
+    return {
+        "radial_load_limit_n": functools.partial(radial_load_limit_n, b),
+        "omega_limit_rad_s": functools.partial(omega_limit_rad_s, b),
+        "clearance_limit_m": lambda: CLEARANCE_LIMIT_FRACTION * b.ball_radius_m,
+        "preload_limit_m": functools.partial(preload_limit_m, b),
+        "setup_time_s": lambda: scene.setup_time_s,
+        "sample_rate_limit_hz": lambda: 1.0 / nu.dt_s,
+        "sample_rate_floor_hz": lambda: 1.0 / nu.duration_s,
+    }
+
+
 def validate_scene(scene: Scene) -> None:
-    """Raise :class:`SceneError` on the first value that is not allowed."""
+    """Raise :class:`SceneError` on the first value that is not allowed: every key's type, then
+    the rows of :data:`signatelec.config.constraints.SCENE` in order."""
+    check = Checker(SceneError, limits=scene_limits(scene))
     for section in ("operating", "procedure", "effects", "numerics"):
         obj = getattr(scene, section)
         for f in fields(obj):
-            value = getattr(obj, f.name)
-            key = f"{section}.{f.name}"
-            if (section, f.name) in _CHOICES:
-                choices = _CHOICES[(section, f.name)]
-                _check(value in choices, key, value, f"must be one of {', '.join(choices)}")
-            elif isinstance(f.default, bool):
-                _check(isinstance(value, bool), key, value, "must be true or false")
-            elif isinstance(f.default, float):
-                _finite(key, value)
-    op, pr, nu = scene.operating, scene.procedure, scene.numerics
-    _check(op.radial_load_n >= 0.0, "operating.radial_load_n", op.radial_load_n, "must be >= 0 N")
-    _check(op.omega_rad_s >= 0.0, "operating.omega_rad_s", op.omega_rad_s, "must be >= 0 rad/s")
-    b = scene.bearing
-    q_limit = ball_load_limit_n(b)
-    load_limit = q_limit * b.n_balls / 4.37
-    _check(
-        op.radial_load_n <= load_limit,
-        "operating.radial_load_n",
-        op.radial_load_n,
-        f"must be <= {load_limit:.4g} N: Stribeck's largest ball load 4.37 F_r / Z would overlap "
-        f"a raceway by more than {100 * OVERLAP_LIMIT_FRACTION:g} % of the ball radius (Hertz)",
-    )
-    omega_limit = (
-        math.sqrt(q_limit / (b.ball_mass_kg * b.pitch_radius_m))
-        * (b.inner_race_radius_m + b.outer_race_radius_m)
-        / b.inner_race_radius_m
-    )
-    _check(
-        op.omega_rad_s <= omega_limit,
-        "operating.omega_rad_s",
-        op.omega_rad_s,
-        f"must be <= {omega_limit:.4g} rad/s: the centrifugal force of a ball would overlap the "
-        f"outer raceway by more than {100 * OVERLAP_LIMIT_FRACTION:g} % of the ball radius (Hertz)",
-    )
-    _check(
-        op.injected_current_a > 0.0,
-        "operating.injected_current_a",
-        op.injected_current_a,
-        "must be > 0 A",
-    )
-    rb = scene.bearing.ball_radius_m
-    _check(
-        abs(op.clearance_m) <= 0.05 * rb,
-        "operating.clearance_m",
-        op.clearance_m,
-        f"must be within +-{0.05 * rb:.3g} m (5 % of the ball radius)",
-    )
-    if op.clearance_m < 0.0:
-        from signatelec.physics.quasistatic import preload_limit_m
-
-        limit = preload_limit_m(scene.bearing)
-        _check(
-            op.clearance_m >= -limit,
-            "operating.clearance_m",
-            op.clearance_m,
-            f"a preload beyond {-limit:.3g} m loads the balls past the 4.2 GPa static contact "
-            "pressure limit (ISO 76)",
-        )
-    for key in ("clearance_time_s", "load_time_s", "spin_up_time_s"):
-        v = getattr(pr, key)
-        _check(v >= 0.0, f"procedure.{key}", v, "must be >= 0 s")
-    _check(nu.dt_s > 0.0, "numerics.dt_s", nu.dt_s, "must be > 0 s")
-    _check(nu.dt_s <= 1e-4, "numerics.dt_s", nu.dt_s, "must be <= 1e-4 s")
-    _check(
-        nu.duration_s > scene.setup_time_s,
-        "numerics.duration_s",
-        nu.duration_s,
-        f"must exceed the set-up phases (clearance + load + spin-up = {scene.setup_time_s:g} s)",
-    )
-    _check(
-        nu.duration_s <= 100.0,
-        "numerics.duration_s",
-        nu.duration_s,
-        "must be <= 100 s",
-    )
-    _check(
-        0.0 < nu.sample_rate_hz <= 1.0 / nu.dt_s,
-        "numerics.sample_rate_hz",
-        nu.sample_rate_hz,
-        f"must be in (0, 1/dt_s = {1.0 / nu.dt_s:g}] Hz",
-    )
-    _check(
-        nu.linear_stiffness_n_m >= 0.0,
-        "numerics.linear_stiffness_n_m",
-        nu.linear_stiffness_n_m,
-        "must be >= 0 N/m (0: Hertz secant stiffness)",
-    )
+            row = type_row(section, f)
+            if row is not None:
+                check.check(row, getattr(obj, f.name))
+    for row in SCENE:
+        check.check(row, getattr(getattr(scene, row.section), row.key))
 
 
 DEFAULT_SCENE = Scene()

@@ -4,7 +4,7 @@ Every local worker is forked from the forkserver, so it starts with these module
 (about 2 s of imports on a busy 2-core machine, paid once instead of once per worker). The
 forkserver is started while the parent compiles the kernels, so the two overlap; each worker then
 loads the compiled kernels from the on-disk cache in its initializer
-(:func:`signatelec.data.dataset.warm_up`).
+(:func:`signatelec.data.runner.warm_up`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import scipy.optimize  # noqa: F401
 import scipy.signal  # noqa: F401
 import scipy.stats  # noqa: F401
 
-import signatelec.data.dataset  # noqa: F401
+import signatelec.data  # noqa: F401
 import signatelec.engines.dem.run  # noqa: F401
 import signatelec.engines.fidelity  # noqa: F401
 import signatelec.physics.electrical  # noqa: F401

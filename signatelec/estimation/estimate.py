@@ -745,7 +745,7 @@ def features_frame(
 
 
 def features_from_dataset(path: str | Path) -> pd.DataFrame:
-    """Feature table of a :mod:`signatelec.data.dataset` directory (or a Parquet feature table).
+    """Feature table of a :mod:`signatelec.data` directory (or a Parquet feature table).
 
     A dataset holds one measured trace per row (``resistance_ohm`` as a list column, its
     ``sample_rate_hz`` and labels); each trace gives one row of features, grouped by trace_id.
@@ -757,7 +757,7 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
         if "resistance_ohm" not in table.columns:
             return table
     else:
-        from signatelec.data.dataset import read_dataset
+        from signatelec.data import read_dataset
 
         table = read_dataset(path)
     if "status" in table.columns:

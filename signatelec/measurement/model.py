@@ -19,8 +19,8 @@ would give, in this order:
 
 ``noise_fraction``, ``drift_fraction`` and ``offset_ohm`` are ranges ``(low, high)``: each trace
 draws its own value uniformly (a fixed value is a range of zero width). Every random number comes
-from the generator handed in (one per trace, see :mod:`signatelec.data.dataset`), always in the same
-order, so a trace is reproducible on its own.
+from the generator handed in (one per trace, see :func:`signatelec.data.design.trace_rng`),
+always in the same order, so a trace is reproducible on its own.
 """
 
 from __future__ import annotations

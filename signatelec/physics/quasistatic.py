@@ -700,15 +700,22 @@ def solve_equilibrium(
 def clearance_for_epsilon(
     bearing, radial_load_n: float, omega_rad_s: float, epsilon: float
 ) -> float:
-    """Radial clearance (m) giving load parameter ``epsilon`` (seed eq. 15) at ``radial_load_n``.
+    """Radial clearance (m; < 0 a preload) giving load parameter ``epsilon`` (seed eq. 15).
 
-    Quasi-static Hertz equilibrium (signatelec.physics.quasistatic) with the centrifugal force and
-    gravity, averaged over the ball positions of one ball spacing; epsilon falls monotonically
-    as the clearance grows, so a bracketing root finder is safe. For the seed's 6208 at 5820 N
-    and 500 rad/s, epsilon = 0.3 needs about +47 um.
+    Quasi-static Hertz equilibrium with the centrifugal force and gravity, averaged over the ball
+    positions of one ball spacing; epsilon falls monotonically as the clearance grows, so a
+    bracketing root finder is safe. 0 < epsilon < 0.5: a clearance up to 5 % of the ball radius
+    (the largest a scene accepts); 0.5: none; above 0.5: a preload down to
+    :func:`preload_limit_m` (ISO 76). For the seed's 6208 at 5820 N and 500 rad/s, epsilon =
+    0.3 needs about +47 um. Raises ValueError, naming epsilon and F_r, when no clearance in that
+    span gives ``epsilon``.
     """
     from scipy.optimize import brentq
 
+    if not (math.isfinite(epsilon) and epsilon > 0.0):
+        raise ValueError(f"epsilon = {epsilon!r}: must be a finite number > 0")
+    if epsilon == 0.5:
+        return 0.0
     z = bearing.n_balls
     cage = np.linspace(0.0, 2.0 * math.pi / z, 8, endpoint=False)
     angles = ball_angles_rad(z, cage)
@@ -725,10 +732,23 @@ def clearance_for_epsilon(
         )
         return float(np.mean(state.epsilon)) - epsilon
 
-    if not 0.0 < epsilon < 0.5:
-        raise ValueError(f"epsilon = {epsilon!r}: a clearance gives 0 < epsilon < 0.5")
-    upper = 0.05 * bearing.ball_radius_m  # the largest clearance a scene accepts
-    return float(brentq(excess, 1e-9, upper, xtol=1e-10))
+    if epsilon < 0.5:
+        upper = 0.05 * bearing.ball_radius_m  # the largest clearance a scene accepts
+        try:
+            return float(brentq(excess, 1e-9, upper, xtol=1e-10))
+        except ValueError as exc:
+            raise ValueError(
+                f"epsilon = {epsilon:g}: no clearance up to 5 % of the ball radius gives it at "
+                f"F_r = {radial_load_n:g} N ({exc})"
+            ) from None
+    lowest = -preload_limit_m(bearing)
+    reached = excess(lowest) + epsilon
+    if reached < epsilon:
+        raise ValueError(
+            f"epsilon = {epsilon:g}: beyond the largest preload ({lowest:.3g} m, 4.2 GPa) at "
+            f"F_r = {radial_load_n:g} N, which gives {reached:.3g}"
+        )
+    return float(brentq(excess, lowest, 0.0, xtol=1e-10))
 
 
 #: Maximum Hertz contact pressure a ball bearing takes statically (ISO 76), Pa.
