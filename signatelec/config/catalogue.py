@@ -293,16 +293,9 @@ _ENTRIES = (
 CATALOGUE: dict[str, CatalogueEntry] = {e.designation: e for e in _ENTRIES}
 DEFAULT_DESIGNATION = "seed"
 
-# Bearing fields that others follow: overriding one re-derives the dependent fields below
+# Bearing fields the others follow: overriding one re-derives the fields of _derived_fields
 # (unless they are overridden too), so that an override keeps the geometry consistent.
 _PRIMARY = ("n_balls", "ball_radius_m", "inner_race_radius_m")
-_DERIVED = (
-    "outer_race_radius_m",
-    "inner_groove_radius_m",
-    "outer_groove_radius_m",
-    "cage_ball_radius_m",
-    "inner_ring_mass_kg",
-)
 
 
 def catalogue_entry(designation: str) -> CatalogueEntry:
@@ -389,7 +382,8 @@ def catalogue_bearing(designation: str = DEFAULT_DESIGNATION, **overrides) -> Be
 
 
 def list_bearings(contact_angle_rad: float = 0.0) -> pd.DataFrame:
-    """The catalogue as a table, one row per entry, in SI units (speeds also in r/min).
+    """The catalogue as a table, one row per entry, in SI units (speeds in r/min as published,
+    the limiting speed also in rad/s).
 
     Besides the published values, each row gives the raceway radii the model uses and the
     characteristic defect frequencies as orders of the shaft speed (cage FTF, BPFO, BPFI, BSF;
