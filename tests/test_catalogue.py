@@ -1,0 +1,202 @@
+"""The bearing catalogue against geometry, Stribeck's constant, ISO 281 and the published figures.
+
+Expected values come from the load-distribution theory (Stribeck's Z Q_max / F_r = 4.37 at zero
+clearance, Harris 2001 section 7.3), ISO 281:2007 (basic dynamic load rating of a deep-groove
+ball bearing from its ball set), the boundary dimensions of ISO 15 and the data sets' published
+geometry; each tolerance says where it comes from.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from signatelec.config.bearing import STEEL, Bearing, BearingError, validate_bearing
+from signatelec.config.catalogue import (
+    CATALOGUE,
+    CatalogueError,
+    catalogue_bearing,
+    catalogue_entry,
+    list_bearings,
+)
+from signatelec.physics.quasistatic import ball_angles_rad, solve_equilibrium
+
+DESIGNATIONS = list(CATALOGUE)
+REAL = [d for d in DESIGNATIONS if d != "seed"]
+
+
+@pytest.mark.parametrize("designation", DESIGNATIONS)
+def test_every_entry_builds_a_bearing_whose_balls_and_cage_fit(designation):
+    b = catalogue_bearing(designation)
+    validate_bearing(b)
+    rp = b.pitch_radius_m
+    # neighbouring balls 2 pi / Z apart on the pitch circle must not touch
+    assert 2.0 * rp * math.sin(math.pi / b.n_balls) > 2.0 * b.ball_radius_m
+    # a cage ball at mid-angle must clear both balls, and its boundaries r_p -+ R_c must stay
+    # between the races (r_p -+ R_b)
+    assert 2.0 * rp * math.sin(math.pi / (2 * b.n_balls)) > b.ball_radius_m + b.cage_ball_radius_m
+    assert b.cage_ball_radius_m < b.ball_radius_m
+    # deep-groove conformities r_groove / D of real bearings lie in 0.51-0.54 (Harris 2001, 2.3)
+    for groove in (b.inner_groove_radius_m, b.outer_groove_radius_m):
+        assert 0.51 <= groove / (2.0 * b.ball_radius_m) <= 0.54
+
+
+def test_the_seed_entry_is_the_seed_bearing():
+    assert catalogue_bearing() == Bearing()
+    assert catalogue_bearing(" SEED ", friction_coefficient=0.1) == Bearing().with_(
+        friction_coefficient=0.1
+    )
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("designation", DESIGNATIONS)
+def test_stribeck_constant_at_zero_clearance(designation):
+    # Stribeck: Z Q_max / F_r = 4.37 at zero clearance, Q_max on the ball at the load line
+    # (Harris 2001, 7.3). With a finite Z the exact sum Z / sum cos^2.5 psi is within 1 % of it
+    # for Z >= 7 (7 balls: 4.337, 8: 4.346, 9: 4.385, 13: 4.374), so 2 % holds it with room.
+    b = catalogue_bearing(designation)
+    radial_load_n = 0.1 * b.dynamic_load_rating_n
+    psi = ball_angles_rad(b.n_balls)
+    state = solve_equilibrium(psi, b, radial_load_n, 0.0, 0.0, centrifugal=False)
+    assert state.epsilon == 0.5
+    assert b.n_balls * state.max_inner_force_n / radial_load_n == pytest.approx(4.37, rel=0.02)
+
+
+# The CWRU drive-end SKF 6205 has a published pitch of 1.537 in = 39.04 mm, 1.40 % above the
+# 38.5 mm mean of its bore and outside diameter: the outer ring is the thinner one. Every other
+# entry is within 1 % (the seed's 2D model sits on the limit: 60.6 mm for a 60 mm mean).
+PITCH_REL = {"6205": 0.015}
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("designation", DESIGNATIONS)
+def test_pitch_diameter_is_near_the_mean_of_bore_and_outside_diameter(designation):
+    e = catalogue_entry(designation)
+    mean_m = 0.5 * (e.bore_diameter_m + e.outside_diameter_m)
+    assert e.pitch_diameter_m == pytest.approx(mean_m, rel=PITCH_REL.get(designation, 0.01 + 1e-12))
+    # and the rings keep a wall between the bore (or outside) and the groove bottom
+    b = catalogue_bearing(designation)
+    assert b.inner_race_radius_m > 0.5 * e.bore_diameter_m
+    assert b.outer_race_radius_m < 0.5 * e.outside_diameter_m
+
+
+# ISO 281:2007 table 2, f_c of single-row radial-contact groove ball bearings against
+# gamma = D cos(alpha) / d_m (N and mm), in the range the catalogue covers.
+ISO281_GAMMA = [0.14, 0.16, 0.18, 0.20, 0.22, 0.24, 0.26, 0.28, 0.30]
+ISO281_FC = [58.8, 59.6, 59.9, 59.9, 59.6, 59.0, 58.2, 57.1, 56.0]
+ISO281_BM = 1.3  # rating factor b_m of deep-groove ball bearings, ISO 281:2007 table 1
+
+
+def iso281_dynamic_rating_n(n_balls: int, ball_diameter_m: float, pitch_diameter_m: float):
+    """C_r = b_m f_c Z^(2/3) D^1.8 (D <= 25.4 mm, one row, alpha = 0), ISO 281:2007 eq. 2."""
+    gamma = ball_diameter_m / pitch_diameter_m
+    fc = float(np.interp(gamma, ISO281_GAMMA, ISO281_FC))
+    return ISO281_BM * fc * n_balls ** (2.0 / 3.0) * (ball_diameter_m * 1e3) ** 1.8
+
+
+@pytest.mark.validation
+def test_iso281_reproduces_the_nsk_ratings_of_the_standard_ball_sets():
+    # NSK rates to ISO 281: 6203 9.55 kN, 6204 12.8 kN, 6206 19.5 kN. The standard ball sets of
+    # the catalogue (8 x 0.2656 in, 8 x 5/16 in, 9 x 3/8 in) reproduce them to the 3 figures given.
+    for designation, nsk_n in (("6203", 9550.0), ("6204", 12800.0), ("6206", 19500.0)):
+        e = catalogue_entry(designation)
+        rating = iso281_dynamic_rating_n(e.n_balls, e.ball_diameter_m, e.pitch_diameter_m)
+        assert rating == pytest.approx(nsk_n, rel=0.005)
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("designation", REAL)
+def test_published_rating_matches_the_ball_set_under_iso281(designation):
+    # Manufacturers publish ratings at or a few per cent above the ISO 281 value of their ball
+    # set (SKF: -0.3 to +5.5 % for these entries; the 6305 ball set was chosen by this
+    # criterion, see its source); one ball more or fewer moves the ISO value by 8-10 %
+    # ((Z +- 1) / Z)^(2/3), which this band would catch. The seed's 13-ball 2D model is no real
+    # ball set (ISO 281 gives it 41 kN against the 29.1 kN it quotes), so it is left out.
+    e = catalogue_entry(designation)
+    rating = iso281_dynamic_rating_n(e.n_balls, e.ball_diameter_m, e.pitch_diameter_m)
+    assert 0.97 <= e.dynamic_load_rating_n / rating <= 1.07
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("designation", REAL)
+def test_catalogue_mass_matches_the_geometry(designation):
+    # Rings as steel annuli (bore to groove bottom, groove bottom to outside diameter, full width)
+    # plus the balls leave out the ring shoulders, the cage and the seals: 3/4 of the catalogue
+    # mass for every entry (0.73-0.77); 0.65-0.85 catches a wrong unit or dimension.
+    e = catalogue_entry(designation)
+    b = catalogue_bearing(designation)
+    outer_ring_kg = (
+        STEEL.density_kg_m3
+        * math.pi
+        * ((0.5 * e.outside_diameter_m) ** 2 - b.outer_race_radius_m**2)
+        * e.width_m
+    )
+    total_kg = b.inner_ring_mass_kg + outer_ring_kg + b.n_balls * b.ball_mass_kg
+    assert 0.65 <= total_kg / e.mass_kg <= 0.85
+    assert b.inner_ring_mass_kg < e.mass_kg
+
+
+@pytest.mark.validation
+def test_6203_geometry_agrees_with_the_paderborn_kat_6203():
+    # Paderborn KAt data set: 6203 with 8 balls of 6.75 mm on a 28.55 mm pitch; the catalogue's
+    # CWRU geometry (6.746 mm, 28.50 mm) agrees within 0.2 %.
+    e = catalogue_entry("6203")
+    assert e.n_balls == 8
+    assert e.ball_diameter_m == pytest.approx(6.75e-3, rel=0.002)
+    assert e.pitch_diameter_m == pytest.approx(28.55e-3, rel=0.002)
+
+
+def test_real_6208_raceways():
+    # 9 balls of 12.7 mm, inner and outer raceway radii 23.65 and 36.35 mm (zero clearance)
+    b = catalogue_bearing("6208")
+    assert b.n_balls == 9
+    assert 2.0 * b.ball_radius_m == pytest.approx(12.7e-3, rel=1e-12)
+    assert b.inner_race_radius_m == pytest.approx(23.65e-3, rel=1e-12)
+    assert b.outer_race_radius_m == pytest.approx(36.35e-3, rel=1e-12)
+
+
+def test_overriding_the_ball_set_rederives_the_dependent_fields():
+    b = catalogue_bearing("6208", n_balls=8)
+    base = catalogue_bearing("6208")
+    assert b.n_balls == 8
+    assert b.outer_race_radius_m == pytest.approx(b.inner_race_radius_m + 2 * b.ball_radius_m)
+    assert b.cage_ball_radius_m > base.cage_ball_radius_m  # wider gaps, larger spacers
+    bigger = catalogue_bearing("6208", ball_radius_m=7e-3)
+    assert bigger.outer_race_radius_m == pytest.approx(bigger.inner_race_radius_m + 14e-3)
+    assert bigger.inner_groove_radius_m == pytest.approx(0.52 * 14e-3)
+    kept = catalogue_bearing("6208", n_balls=8, cage_ball_radius_m=2e-3)
+    assert kept.cage_ball_radius_m == 2e-3
+    assert catalogue_bearing("6205", cage_material="steel").cage_material == STEEL
+
+
+@pytest.mark.parametrize(
+    ("args", "overrides", "message"),
+    [
+        (("6209",), {}, r"bearing.designation = '6209': unknown bearing; known: seed, 6203"),
+        (("6205",), {"balls": 9}, r"bearing.balls = 9: unknown key; allowed: "),
+        (("6205",), {"n_balls": 30}, r"bearing.n_balls = 30: 30 balls .* leave no room"),
+        (("6205",), {"n_balls": 2.5}, r"bearing.n_balls = 2.5: must be an integer >= 3"),
+        (("6205",), {"ball_radius_m": -1e-3}, r"bearing.ball_radius_m = -0.001: must be"),
+        (("6205",), {"cage_ball_radius_m": 5e-3}, r"bearing.n_balls = 9: 9 balls"),
+    ],
+)
+def test_bad_designation_or_override_is_one_clear_line(args, overrides, message):
+    with pytest.raises(BearingError, match=message) as info:
+        catalogue_bearing(*args, **overrides)
+    assert "\n" not in str(info.value)
+    if "designation" in message or "unknown key" in message:
+        assert isinstance(info.value, CatalogueError)
+
+
+def test_list_bearings_is_a_table_with_sources_and_orders():
+    table = list_bearings()
+    assert list(table.index) == DESIGNATIONS
+    for column in ("geometry_source", "ratings_source"):
+        assert table[column].str.len().min() > 0
+    for column in ("ftf_order", "bpfo_order", "bpfi_order", "bsf_order", "limiting_speed_rad_s"):
+        assert column in table.columns
+    # BPFO + BPFI = Z orders for every entry (each ball passes both races once per relative turn)
+    total = table["bpfo_order"] + table["bpfi_order"]
+    np.testing.assert_allclose(total, table["n_balls"].astype(float), rtol=1e-14)
