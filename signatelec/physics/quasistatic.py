@@ -697,6 +697,22 @@ def solve_equilibrium(
     return QuasiStaticState(**{k: v[0] for k, v in vars(state).items()})
 
 
+#: The bearing's regimes by its radial clearance Delta_r (seed eq. 14): "preload" below
+#: -REGIME_TOLERANCE_M, "zero" within +-REGIME_TOLERANCE_M, "clearance" above; epsilon
+#: (seed eq. 15) is above 0.5, 0.5 and below 0.5 in turn (:func:`regime_of`).
+REGIMES = ("preload", "zero", "clearance")
+REGIME_TOLERANCE_M = 1e-6
+
+
+def regime_of(clearance_m: float) -> str:
+    """The regime (:data:`REGIMES`) of a radial clearance in metres."""
+    if clearance_m < -REGIME_TOLERANCE_M:
+        return "preload"
+    if clearance_m > REGIME_TOLERANCE_M:
+        return "clearance"
+    return "zero"
+
+
 def clearance_for_epsilon(
     bearing, radial_load_n: float, omega_rad_s: float, epsilon: float
 ) -> float:
