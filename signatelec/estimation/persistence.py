@@ -198,7 +198,7 @@ def default_model(log: Callable[[str], None] | None = None) -> LoadStateModel:
             return load_model(path)
         except ModelError as exc:
             message = (
-                f"warning: the cached default model {str(path)!r} is unusable ({exc.reason}); "
+                f"warning: the cached default model {str(path)!r} is unusable: {exc.reason}; "
                 "rebuilding it"
             )
     if log is not None:
