@@ -46,12 +46,12 @@ RETRAIN = "retrain it with `signatelec train DATASET --out MODEL`"
 
 
 class ModelError(ValueError):
-    """A model file that cannot be used here: one line naming the file, the reason and what to
-    do (``reason`` alone for messages of one's own)."""
+    """A model that cannot be used here: one line naming the file, the reason and what to do
+    (``reason`` alone for messages of one's own)."""
 
-    def __init__(self, path, reason: str, advice: str = ""):
+    def __init__(self, path, reason: str, advice: str = "", *, subject: str = "model file"):
         self.path, self.reason = str(path), reason
-        super().__init__(f"model file {self.path!r}: {reason}" + (f"; {advice}" if advice else ""))
+        super().__init__(f"{subject} {self.path!r}: {reason}" + (f"; {advice}" if advice else ""))
 
 
 def model_header(info: dict | None = None) -> dict:
@@ -186,8 +186,9 @@ def default_model(log: Callable[[str], None] | None = None) -> LoadStateModel:
     if not DEFAULT_TABLE.is_file():
         raise ModelError(
             DEFAULT_TABLE,
-            "the shipped feature table of the default model is missing",
+            "missing",
             "give --model or run pipelines/load_state.py --ship",
+            subject="the default model's shipped feature table",
         )
     path = default_model_path()
     message = (
