@@ -361,14 +361,10 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
     The trace needs at least 5 ball passes; isolated missing samples, small gaps and uneven
     sampling are repaired, anything else is refused (exit 2).
     """
-    from signatelec.estimation.estimate import (
-        ModelError,
-        default_model,
-        format_estimate,
-        load_model,
-    )
     from signatelec.estimation.estimate import estimate as run_estimate
-    from signatelec.estimation.estimate import write_result as write_estimate
+    from signatelec.estimation.persistence import ModelError, default_model, load_model
+    from signatelec.estimation.report import format_estimate
+    from signatelec.estimation.report import write_result as write_estimate
     from signatelec.measurement.traces import TraceError, prepare_trace, read_trace
 
     if out is not None:
@@ -407,7 +403,8 @@ def train(dataset, out, quiet):
     DATASET: a directory written by `signatelec generate` (each measured trace gives one row of
     features) or a Parquet feature table with labels (pipelines/load_state.py writes one).
     """
-    from signatelec.estimation.estimate import features_from_dataset, save_model, train_model
+    from signatelec.estimation.persistence import save_model
+    from signatelec.estimation.training import features_from_dataset, train_model
 
     check_writable_file(out)
     where = f"dataset {dataset!r}"

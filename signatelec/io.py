@@ -23,6 +23,12 @@ from signatelec._version import __version__
 METADATA_KEY = b"signatelec"
 
 
+def cache_root() -> Path:
+    """The user's signatelec cache: $SIGNATELEC_CACHE_DIR, else ~/.cache/signatelec."""
+    root = os.environ.get("SIGNATELEC_CACHE_DIR")
+    return Path(root) if root else Path.home() / ".cache" / "signatelec"
+
+
 class OutputError(OSError):
     """The output location cannot be written; the message names it."""
 
@@ -76,3 +82,16 @@ def write_result(result, out_dir: str | Path) -> None:
             pq.write_table(
                 table_with_metadata(getattr(result, name), meta), tmp / f"{name}.parquet"
             )
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` under a temporary name in its directory, then rename: a
+    reader never sees a half-written file. OSError when the directory is not writable."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

@@ -1,4 +1,4 @@
-"""Features of a resistance trace (issue 6): the scikit-learn contract, invariance, physics.
+"""Features of a resistance trace: invariance, physics, the transformer twins.
 
 Invariance: one continuous signal (the quasi-static tier's steady resistance at 200 kHz, band-
 limited by the measurement model's anti-alias filter to 20 and 50 kHz) gives the same features
@@ -15,10 +15,11 @@ import warnings
 
 import numpy as np
 import pytest
-from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from signatelec.config.bearing import Bearing
 from signatelec.estimation import features as F
+from signatelec.estimation import transformers as T
+from signatelec.estimation.analysis import analyse_trace
 
 #: Features of the signal itself (the ripple and the level), compared on the noise-free trace.
 SIGNAL_FEATURES = (
@@ -30,11 +31,6 @@ SIGNAL_FEATURES = (
 )
 #: Per-sample noise features (invariant for the same noise per sample).
 PER_SAMPLE_NOISE = ("noise_rms_rel", "noise_mad_rel", "noise_white_rel", "level_mad_rel")
-
-
-@parametrize_with_checks([T() for T in F.TRANSFORMERS])
-def test_sklearn_contract(estimator, check):
-    check(estimator)
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +141,7 @@ def test_debiased_amplitudes():
     rng = np.random.default_rng(3)
     debiased, raw = [], []
     for _ in range(200):
-        a = F.analyse_trace(clean + rng.normal(0, 1.5e-6, t.size), fs, 500.0)
+        a = analyse_trace(clean + rng.normal(0, 1.5e-6, t.size), fs, 500.0)
         debiased.append(F.harmonic_features(None, analysis=a)["h2_rel"] ** 2)
         raw.append((abs(a.coefficients[1]) / a.level_ohm) ** 2)
     bias_raw = np.mean(raw) / 1e-8 - 1.0
@@ -190,7 +186,7 @@ def test_twins_match_transformers():
         ]
     )
     for transformer, function in zip(
-        F.TRANSFORMERS[:-1],
+        T.TRANSFORMERS[:-1],
         (
             F.level_features,
             F.spectrum_features,
@@ -208,7 +204,7 @@ def test_twins_match_transformers():
             d = function(row, fs, 500.0)
             assert list(d) == names
             np.testing.assert_allclose(out[i], [d[n] for n in names], rtol=1e-12, atol=0)
-    whole = F.TraceFeatures(sample_rate_hz=fs, omega_rad_s=500.0).fit_transform(X)
+    whole = T.TraceFeatures(sample_rate_hz=fs, omega_rad_s=500.0).fit_transform(X)
     assert whole.shape == (3, len(F.trace_feature_names()))
 
 

@@ -1,4 +1,4 @@
-"""A measured resistance trace: read it, repair what is safe, refuse what is not (issue 6).
+"""A measured resistance trace: read it, repair what is safe, refuse what is not.
 
 :func:`read_trace` reads a CSV or Parquet table with a time column (s) and a resistance column
 (ohm); :func:`prepare_trace` turns the two columns into a uniformly sampled, finite trace fit for

@@ -1,0 +1,86 @@
+"""The estimate of one trace as text, JSON or a one-row Parquet table."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from signatelec.estimation.models import DEFAULT_COVERAGE
+from signatelec.io import write_bytes_atomic
+from signatelec.physics.regimes import REGIMES
+
+
+def format_estimate(result: dict) -> str:
+    """A readable summary of :func:`estimate`'s result."""
+    cov = result.get("interval_coverage", DEFAULT_COVERAGE)
+    tr = result["trace"]
+    lines = [
+        f"trace: {tr['source']}, {tr['n_samples']} samples at {tr['sample_rate_hz']:.6g} Hz "
+        f"({tr['duration_s'] * 1e3:.4g} ms, {tr['ball_passes']:.1f} ball passes); level "
+        f"{tr['level_ohm'] * 1e3:.4f} mOhm, noise {tr['noise_rms_rel'] * 100:.3g} %",
+        f"ball-pass frequency: found {tr['ball_pass_found_hz']:.2f} Hz "
+        f"(kinematic {tr['ball_pass_expected_hz']:.2f} Hz)",
+    ]
+    for r in tr["repairs"]:
+        lines.append(f"repaired: {r}")
+    lines.append(f"estimate ({cov:.0%} intervals):")
+    if "radial_load_n" in result:
+        lines.append(
+            f"  radial load F_r = {result['radial_load_n']:.0f} N  "
+            f"[{result['radial_load_n_low']:.0f}, {result['radial_load_n_high']:.0f}]"
+        )
+    if "epsilon" in result:
+        lines.append(
+            f"  load parameter epsilon = {result['epsilon']:.3f}  "
+            f"[{result['epsilon_low']:.3f}, {result['epsilon_high']:.3f}]"
+        )
+    if "clearance_m" in result:
+        lines.append(
+            f"  clearance = {result['clearance_m'] * 1e6:+.1f} um  "
+            f"[{result['clearance_m_low'] * 1e6:+.1f}, {result['clearance_m_high'] * 1e6:+.1f}]"
+        )
+    if "regime" in result:
+        probs = ", ".join(
+            f"{r} {result[f'regime_probability_{r}']:.2f}"
+            for r in REGIMES
+            if f"regime_probability_{r}" in result
+        )
+        sure = "" if result.get("regime_confident", True) else ", uncertain"
+        lines.append(f"  regime = {result['regime']}  ({probs}{sure})")
+    for note in result.get("notes", []):
+        lines.append(f"note: {note}")
+    return "\n".join(lines)
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(type(value).__name__)
+
+
+def result_json(result: dict) -> str:
+    return json.dumps(result, indent=2, default=_json_default)
+
+
+def result_table(result: dict) -> pd.DataFrame:
+    """One-row table of the estimate (nested notes flattened)."""
+    flat = {k: v for k, v in result.items() if k not in ("trace", "model", "notes")}
+    for k, v in result["trace"].items():
+        flat[f"trace_{k}"] = "; ".join(v) if isinstance(v, list) else v
+    flat["notes"] = "; ".join(result.get("notes", []))
+    return pd.DataFrame([flat])
+
+
+def write_result(result: dict, out: str | Path) -> None:
+    """JSON (``.json``) or Parquet (``.parquet``) of the estimate, written atomically."""
+    if Path(out).suffix.lower() in (".parquet", ".pq"):
+        buf = io.BytesIO()
+        result_table(result).to_parquet(buf, index=False)
+        data = buf.getvalue()
+    else:
+        data = (result_json(result) + "\n").encode()
+    write_bytes_atomic(out, data)
