@@ -1,5 +1,5 @@
-"""Tests of signatelec.physics.electrical against physics: Hertz theory, Kirchhoff's laws, network
-theory.
+"""Tests of signatelec.physics.conductance and signatelec.physics.electrical against physics:
+Hertz theory, Kirchhoff's laws, network theory.
 
 Validation tests (marked ``validation``) compare with theory written here independently: the exact
 Hertz ellipse, Stribeck's load distribution and a hand count of eq. 18. The others check laws the
@@ -18,14 +18,12 @@ from scipy.optimize import brentq
 from scipy.special import ellipe, ellipk
 
 from signatelec.config.bearing import Bearing, raceway_radii
+from signatelec.physics.conductance import ball_conductance, bearing_contact_area, contact_ellipse
 from signatelec.physics.contact import raceway_curvatures
 from signatelec.physics.electrical import (
     DENSITY_LIMIT_A_M2,
     CurrentDensityWarning,
-    ball_conductance,
-    bearing_contact_area,
     bearing_electrics,
-    contact_ellipse,
 )
 
 BEARING = Bearing()

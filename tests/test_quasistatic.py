@@ -8,25 +8,34 @@ seed eqs 14-15; none is a number this code produced. Each tolerance says where i
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+import signatelec
 from signatelec.config.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2, Bearing
 from signatelec.physics.contact import hertz_overlap, law_coefficients
-from signatelec.physics.quasistatic import (
-    ball_angles_rad,
-    ball_loads,
+from signatelec.physics.load_distribution import (
     epsilon_from_shift,
     harris_radial_integral,
     load_zone_limit_rad,
     max_ball_load_n,
+)
+from signatelec.physics.quasistatic import (
+    ball_angles_rad,
+    ball_loads,
     radial_unit_vectors,
     solve_equilibrium,
     solve_equilibrium_over_time,
 )
+from signatelec.physics.ring_equilibrium import COMPILED_CONTACT_LAWS, contact_laws_fingerprint
 
 SEED = Bearing()
 C_R_N = SEED.dynamic_load_rating_n  # 29100 N (seed 2.2.2)
@@ -450,3 +459,50 @@ def test_inputs_are_checked():
         solve_equilibrium(np.array([2.0, 2.5, 3.0, 3.5]), SEED, 100.0, 0.0, 0.0)
     with pytest.raises(ValueError, match="contact_law"):
         solve_equilibrium(BALL_AT_ZERO, SEED, 100.0, 0.0, 0.0, law="rubber")
+
+
+# --- the compiled solver follows the contact laws -------------------------------------------------
+
+
+def test_compiled_solver_records_the_current_contact_laws():
+    # numba caches the solver by its own file: the fingerprint line there must change with the
+    # laws of contact.py, or a stale cache could serve the old law (see COMPILED_CONTACT_LAWS).
+    assert contact_laws_fingerprint() == COMPILED_CONTACT_LAWS, (
+        "the contact laws changed: set signatelec.physics.ring_equilibrium.COMPILED_CONTACT_LAWS "
+        f"to {contact_laws_fingerprint()!r}"
+    )
+
+
+@pytest.mark.slow
+def test_a_changed_hertz_law_reaches_the_compiled_solver(tmp_path):
+    # A copy of the package, run twice with one numba cache; between the runs the copy's Hertz
+    # force doubles. Both contacts stiffer by 2: same split of the approach, Q exactly doubled.
+    package = Path(signatelec.__file__).parent
+    shutil.copytree(package, tmp_path / "signatelec", ignore=shutil.ignore_patterns("__pycache__"))
+    script = (
+        "from signatelec.config.bearing import Bearing\n"
+        "from signatelec.physics.quasistatic import ball_angles_rad, ball_loads\n"
+        "inner, _ = ball_loads(ball_angles_rad(13), [0.0, -1e-5], Bearing(), 0.0, 0.0, "
+        "centrifugal=False)\n"
+        "print(repr(float(inner.max())))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "NUMBA_CACHE_DIR": str(tmp_path / "nb")}
+
+    def max_load_n() -> float:
+        run = subprocess.run(
+            [sys.executable, "-c", script],
+            env=env,
+            cwd=tmp_path,  # "-c" puts the working directory first on sys.path
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return float(run.stdout)
+
+    before = max_load_n()
+    contact = tmp_path / "signatelec" / "physics" / "contact.py"
+    text = contact.read_text()
+    hertz = "    return coefficient * d * np.sqrt(d)\n"
+    assert text.count(hertz) == 1
+    contact.write_text(text.replace(hertz, "    return 2.0 * coefficient * d * np.sqrt(d)\n"))
+    assert max_load_n() == pytest.approx(2.0 * before, rel=1e-12)
