@@ -1,4 +1,4 @@
-"""The accuracy-cost study (signatelec.studies.accuracy_cost, pipelines/accuracy_cost.py)."""
+"""The accuracy-cost study (signatelec.studies.accuracy_*, pipelines/accuracy_cost.py)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from signatelec.cli import main as cli_main
-from signatelec.studies.accuracy_cost import (
+from signatelec.studies.accuracy_metrics import (
     PAPER_SETTING,
     ball_pass_amplitude,
     pareto_front,
@@ -89,14 +89,16 @@ def test_quick_study_writes_its_three_outputs_and_resumes(tmp_path):
     ref = table.iloc[0]
     assert ref.mean_resistance_error == 0.0 and ref.ball_pass_amplitude_error == 0.0
     paper = table[table.setting == PAPER_SETTING].iloc[0]
-    assert paper.cost_vs_paper == 1.0
+    # costs compare CPU times, as the study does: the wall time of a shared machine also counts
+    # the other processes (a tier run of milliseconds can wait that long for a core)
+    assert paper.cpu_cost_vs_paper == 1.0
     # dt = 1e-7 s is converged: within 0.1 % of dt = 1e-8 s on the mean and the ball-pass
     # amplitude (the study measures ~1e-4 of that); the reference costs ~10x more per second
     assert abs(paper.mean_resistance_error) < 1e-3 and abs(paper.ball_pass_amplitude_error) < 1e-3
-    assert ref.cost_vs_paper > 3.0
+    assert ref.cpu_cost_vs_paper > 3.0
     # the quasi-static tier: mean resistance within 1 %, far cheaper than the paper's setting
     qs = table[table.setting == "quasistatic"].iloc[0]
-    assert abs(qs.mean_resistance_error) < 0.01 and qs.cost_vs_paper < 0.1
+    assert abs(qs.mean_resistance_error) < 0.01 and qs.cpu_cost_vs_paper < 0.1
     for column in ("wall_s_per_simulated_s", "cpu_s_per_simulated_s", "rms_resistance_error"):
         assert np.isfinite(table[column]).all()
     text = paths["markdown"].read_text()

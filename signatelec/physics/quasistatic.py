@@ -231,12 +231,14 @@ def ring_equilibrium(
     gravity=False,
     rtol=SOLVER_RTOL,
     initial_shift_xy_m=None,
+    unit_xy=None,
 ) -> RingSolution:
     """Checked inputs to :func:`signatelec.physics.ring_equilibrium.solve_ring`, checked output.
 
     ``raceway`` is ``((c_inner, c_outer), exponent)`` (:func:`raceway_law`, or a scene's law);
     the other parameters are those of :func:`solve_equilibrium_over_time`; ``rtol`` the residual
-    asked, relative to the load carried. Raises as :func:`solve_equilibrium_over_time`.
+    asked, relative to the load carried; ``unit_xy`` the ``(sin psi, -cos psi)`` arrays when the
+    caller has them. Raises as :func:`solve_equilibrium_over_time`.
     """
     psi = np.asarray(ball_angle_rad, dtype=float)
     if psi.ndim != 2 or psi.shape[1] < 3:
@@ -244,21 +246,20 @@ def ring_equilibrium(
     if not np.isfinite(radial_load_n) or radial_load_n < 0.0:
         raise ValueError(f"radial_load_n = {radial_load_n!r}: must be a finite number >= 0")
     load_xy = ring_load_xy_n(bearing, radial_load_n, gravity)
-    if load_xy.any():
-        carries = _ball_set_carries(psi, load_xy)
-        if not carries.all():
-            bad = np.flatnonzero(~carries)
-            raise ValueError(
-                f"ball_angle_rad: at {bad.size} of {psi.shape[0]} instants (first: {bad[0]}) the "
-                "balls lie on one side, away from the load, and cannot carry it"
-            )
     body = ball_body_force_n(psi, bearing, omega_rad_s, centrifugal, gravity)
+    ux, uy = (np.sin(psi), -np.cos(psi)) if unit_xy is None else unit_xy
     start = (0.0, 0.0) if initial_shift_xy_m is None else initial_shift_xy_m
-    solution = solve_ring(
-        np.sin(psi), -np.cos(psi), body, clearance_m, load_xy, *raceway, rtol=rtol, start_xy_m=start
-    )
+    solution = solve_ring(ux, uy, body, clearance_m, load_xy, *raceway, rtol=rtol, start_xy_m=start)
     bad = np.flatnonzero(~solution.converged)
     if bad.size:
+        # Why an instant failed: balls that cannot carry the load, or an ill-conditioned set.
+        carries = _ball_set_carries(psi, load_xy) if load_xy.any() else np.ones(len(psi), bool)
+        if not carries.all():
+            cannot = np.flatnonzero(~carries)
+            raise ValueError(
+                f"ball_angle_rad: at {cannot.size} of {psi.shape[0]} instants (first: "
+                f"{cannot[0]}) the balls lie on one side, away from the load, and cannot carry it"
+            )
         u = radial_unit_vectors(psi[bad[0]])
         residual = solution.inner_force_n[bad[0]] @ u - load_xy
         raise RuntimeError(

@@ -123,13 +123,14 @@ def steady_record_times_s(scene: Scene) -> np.ndarray:
 # --- equilibrium ---------------------------------------------------------------------------------
 
 
-def solve_ring_equilibrium(scene: Scene, ball_angle_rad) -> RingSolution:
+def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingSolution:
     """Quasi-static equilibrium of the scene's inner ring at ball angles (T, Z).
 
     The equations of :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` with the
     scene's contact law (the DEM's coefficients, :func:`signatelec.engines.laws.scene_law`),
     clearance, speed, centrifugal force and gravity, solved by the same compiled Newton
-    (:mod:`signatelec.physics.ring_equilibrium`) to ``TIER_RTOL``.
+    (:mod:`signatelec.physics.ring_equilibrium`) to ``TIER_RTOL``. ``unit_xy``: the balls'
+    ``(sin psi, -cos psi)`` when the caller has them.
     """
     op, e = scene.operating, scene.effects
     coef, n = scene_law(scene)
@@ -143,6 +144,7 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad) -> RingSolution:
         centrifugal=e.centrifugal,
         gravity=e.gravity,
         rtol=TIER_RTOL,
+        unit_xy=unit_xy,
     )
 
 
@@ -172,7 +174,8 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         solve_ring_equilibrium(scene, psi[:1])
         compile_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    eq = solve_ring_equilibrium(scene, psi)
+    ux, uy = np.sin(psi), -np.cos(psi)
+    eq = solve_ring_equilibrium(scene, psi, (ux, uy))
     run_s = time.perf_counter() - t0
 
     omega = op.omega_rad_s
@@ -185,8 +188,8 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "time_s": np.repeat(t, z),
         "ball": np.tile(np.arange(z, dtype=np.int32), n_rec),
         "angle_rad": psi.ravel(),
-        "x_m": (radius * np.sin(psi)).ravel(),
-        "y_m": (radius * -np.cos(psi)).ravel(),
+        "x_m": (radius * ux).ravel(),
+        "y_m": (radius * uy).ravel(),
         "orbit_speed_rad_s": np.full(n_rows, omega_c),
         "spin_rad_s": np.full(n_rows, spin),
         "inner_force_n": eq.inner_force_n.ravel(),
