@@ -76,6 +76,8 @@ _linear_force, _linear_stiffness, _linear_energy, _linear_overlap = map(_jit, NO
 
 
 # --- the normal law of an exponent (contact.NORMAL_LAWS, compiled) -------------------------------
+# Four dispatchers of one shape, written out: a factory would make closures, which numba's cache
+# does not serve (they recompile in every process).
 
 
 @_jit
@@ -107,6 +109,13 @@ def law_overlap(force_n, coefficient, exponent):
 
 
 # --- one ball between the races (Harris 7.2) -----------------------------------------------------
+
+
+@_jit
+def _unit_force_split(ci, co, n):
+    """x / delta of a ball carrying one force on both races: exact without body force."""
+    inner, outer = law_overlap(1.0, ci, n), law_overlap(1.0, co, n)
+    return inner / (inner + outer)
 
 
 @njit(cache=_CACHE, error_model="numpy")
@@ -183,7 +192,7 @@ def ball_forces(approach, body, ci, co, n, inner_force, outer_force):
     """Q_i and Q_o of balls (flat arrays) at given approaches, started from the exact split."""
     reach = np.empty(body.shape[0])
     _reach(body, ci, co, n, reach)
-    split = 1.0 / (1.0 + (ci / co) ** (1.0 / n))  # exact without body force
+    split = _unit_force_split(ci, co, n)
     for k in range(approach.shape[0]):
         qi, qo, _, _, _, _, _ = _ball(approach[k], body[k], reach[k], ci, co, n, split)
         inner_force[k], outer_force[k] = qi, qo
@@ -305,7 +314,7 @@ def _solve_series(ux, uy, body, clearance, fx, fy, ci, co, n, floor, rtol, start
     """Every instant in turn, each started from the extrapolation of the three before."""
     shift, qi, qo, xi, xo, ok = out
     t_count, z = ux.shape
-    split = np.full(z, 1.0 / (1.0 + (ci / co) ** (1.0 / n)))  # exact without body force
+    split = np.full(z, _unit_force_split(ci, co, n))
     reach = np.empty(z)
     for t in range(t_count):
         if t >= 3:
