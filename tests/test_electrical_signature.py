@@ -276,6 +276,7 @@ def test_figure_9_clearance_gives_epsilon_0_3_in_the_dem(run_scene):
 # --- the command --------------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # seven short DEM runs and three figures: 2-9 s
 def test_figures_command_writes_the_three_pngs(tmp_path):
     from signatelec.cli import main
     from signatelec.studies.paper_figures import FIGURE_FILES
