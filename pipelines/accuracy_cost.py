@@ -1,4 +1,4 @@
-"""What accuracy costs in time (issue 4): the fidelity ladder against a dt = 1e-8 s reference.
+"""What accuracy costs in time: the fidelity ladder against a dt = 1e-8 s reference.
 
 Usage::
 
@@ -10,10 +10,10 @@ with a 10 um preload, zero clearance and a 40 um clearance), each simulated by a
 (velocity Verlet, dt = 1e-8 s, every seed effect) and by every setting of the ladder: the
 quasi-static tier, dt from 2e-8 s to the stability limit, symplectic Euler, the linear and
 Harris laws, no gravity, cage-mass scaling and the presets of signatelec.engines.fidelity. Writes
-``accuracy_cost.parquet`` (one row per scene and setting), ``accuracy_cost.md`` (tables) and
-``accuracy_cost.png`` (Pareto plot). About 1.5 minutes on one core (130 cases); ``--quick``
-(one scene, three settings, three ball-pass periods) about 5 s. Finished cases are cached in
-OUT_DIR/.cache, so an interrupted run resumes (``--fresh`` starts over). The work is done by
+``accuracy_cost.parquet`` (one row per scene and setting), ``accuracy_cost.md`` (tables, and the
+study's run time) and ``accuracy_cost.png`` (Pareto plot); ``--quick`` runs one scene, three
+settings and three ball-pass periods. Finished cases are cached in OUT_DIR/.cache, so an
+interrupted run resumes (``--fresh`` starts over). The work is done by
 :mod:`signatelec.studies.accuracy_cost`, so the command works from an installed package too.
 """
 

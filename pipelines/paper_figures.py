@@ -9,9 +9,8 @@ Writes ``figure_6_9.png`` (force, current and potential around the bearing at ep
 0.3), ``figure_7_10.png`` (one ball's outer-raceway force over a rolling round, several F_r and
 epsilon) and ``figure_8_11.png`` (bearing resistance against time, same cases). Seven DEM runs of
 about 0.044 s of bearing time each; ``--quick`` stops them 2 ms after the set-up.
-The work is done by :func:`signatelec.studies.paper_figures.paper_figures`, so the command works
-from an
-installed package too.
+The work is done by :func:`signatelec.studies.paper_figures.paper_figures`, so the command
+works from an installed package too.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 The theory (signatelec.physics.quasistatic) is evaluated at the very ball angles the DEM has at each
 recorded steady instant, with the same 2D stiffnesses (seed eqs 6, 12-13), the centrifugal force
 and gravity. The DEM is dynamic (rolling, damping, friction), so it should approach the
-quasi-static state closely but not exactly: the issue's 2 % tolerance is used throughout.
+quasi-static state closely but not exactly: it is required within 2 %. The tolerances are a few
+times the differences measured over the nine scenes (quoted beside them).
 """
 
 from __future__ import annotations
@@ -54,22 +55,23 @@ def test_steady_state_matches_quasistatic_hertz(run_scene, fraction, clearance_m
     )
     dem_qmax = inner.max(axis=1).mean()
     qs_qmax = qs.inner_force_n.max(axis=1).mean()
-    assert dem_qmax == pytest.approx(qs_qmax, rel=0.02)
+    assert dem_qmax == pytest.approx(qs_qmax, rel=0.02)  # measured 0.74 % at worst
     dem_dr = sig.delta_r_m.mean()
-    assert dem_dr == pytest.approx(qs.delta_r_m.mean(), rel=0.02)
+    assert dem_dr == pytest.approx(qs.delta_r_m.mean(), rel=0.02)  # measured 0.71 %
     # loaded balls: a ball counts when it carries more than 0.5 % of the mean ball load F_r / Z
     # (the DEM's damped contacts touch with tiny forces at the load-zone edge)
     threshold = 0.005 * scene.operating.radial_load_n / scene.bearing.n_balls
     dem_loaded = (inner > threshold).sum(axis=1).mean()
     qs_loaded = (qs.inner_force_n > threshold).sum(axis=1).mean()
-    assert dem_loaded == pytest.approx(qs_loaded, rel=0.02)
-    # load-zone limit psi_l = arccos(clearance / delta_r) (seed eq. 15, Harris)
+    assert dem_loaded == pytest.approx(qs_loaded, rel=0.02)  # measured 0.89 %
+    # load-zone limit psi_l = arccos(clearance / delta_r) (seed eq. 15, Harris); measured 0.14 %
     psi_dem = math.acos(np.clip(clearance_m / dem_dr, -1, 1))
     psi_qs = float(np.mean(qs.load_zone_limit_rad))
-    assert psi_dem == pytest.approx(psi_qs, rel=0.02)
-    # every ball the DEM loads lies inside the load zone, within half a ball spacing
+    assert psi_dem == pytest.approx(psi_qs, rel=6e-3)
+    # every ball the DEM loads lies inside the load zone (measured: inside by 0.03 of half a
+    # ball spacing at least; allowed 0.1 of it beyond)
     loaded_angles = np.abs(angle[inner > threshold])
-    assert loaded_angles.max() <= psi_qs + math.pi / scene.bearing.n_balls
+    assert loaded_angles.max() <= psi_qs + 0.1 * math.pi / scene.bearing.n_balls
 
 
 def test_stribeck_max_load_at_zero_clearance(run_scene):
@@ -77,7 +79,7 @@ def test_stribeck_max_load_at_zero_clearance(run_scene):
 
     Centrifugal force and gravity off, so the ball loads come from F_r alone. The maximum over
     time is taken when a ball passes psi = 0, the configuration of Stribeck's sum; for Z = 13 it
-    gives 4.374, so the tolerance is the issue's 2 %.
+    gives 4.374. Required: 2 %; measured 0.2 % from 4.37.
     """
     scene = make_scene(
         radial_load_n=5820.0,
@@ -87,18 +89,20 @@ def test_stribeck_max_load_at_zero_clearance(run_scene):
     sig, angle, inner = steady_arrays(run_scene(scene))
     z = scene.bearing.n_balls
     qmax = inner.max(axis=1).max()
-    assert qmax * z / scene.operating.radial_load_n == pytest.approx(4.37, rel=0.02)
-    assert sig.epsilon.mean() == pytest.approx(0.5, abs=0.01)
+    assert qmax * z / scene.operating.radial_load_n == pytest.approx(4.37, rel=8e-3)
+    assert sig.epsilon.mean() == pytest.approx(0.5, abs=1e-15)  # exact at zero clearance (eq. 15)
 
 
 def test_cage_speed_and_ball_spin_follow_rolling_kinematics(run_scene):
-    """Pure rolling: cage speed omega R_inn / (R_inn + R_out), ball spin -omega_c r_p / R_b."""
+    """Pure rolling: cage speed omega R_inn / (R_inn + R_out), ball spin -omega_c r_p / R_b.
+
+    Measured: the cage 0.012 % slower, the loaded balls' spin 4e-6 from rolling."""
     scene = make_scene(duration_s=0.014, effects={"electrical": False})
     result = run_scene(scene)
     t0 = scene.setup_time_s + SETTLE_S
     sig = result.signals[result.signals.time_s > t0]
     b = scene.bearing
     omega = scene.operating.omega_rad_s
-    assert sig.cage_speed_rad_s.mean() == pytest.approx(b.cage_speed_rad_s(omega), rel=0.01)
+    assert sig.cage_speed_rad_s.mean() == pytest.approx(b.cage_speed_rad_s(omega), rel=5e-4)
     balls = result.balls[(result.balls.time_s > t0) & (result.balls.inner_force_n > 100.0)]
-    assert balls.spin_rad_s.mean() == pytest.approx(b.ball_spin_rad_s(omega), rel=0.01)
+    assert balls.spin_rad_s.mean() == pytest.approx(b.ball_spin_rad_s(omega), rel=2e-5)

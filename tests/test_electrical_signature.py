@@ -1,4 +1,4 @@
-"""Electrical signature of the bearing (issue 3): the seed's section 4 against physics.
+"""Electrical signature of the bearing: the seed's section 4 against physics.
 
 - The DEM's steady resistance equals the resistance of the quasi-static Hertz ball loads
   (Harris 2001, ch. 7, evaluated at the DEM's own ball angles) fed to the seed's electrical model
@@ -83,21 +83,24 @@ def mean_resistance_ohm(result) -> float:
 
 @pytest.mark.validation
 def test_seed_steady_resistance_matches_quasistatic_hertz_loads(run_scene):
-    """Seed scene (F_r = 5820 N, no clearance, 500 rad/s): issue 3's 2 % on the time average.
+    """Seed scene (F_r = 5820 N, no clearance, 500 rad/s): the DEM's resistance is required
+    within 2 % of the theory's on the time average.
 
-    Measured: DEM 3.1492 mOhm against 3.1503 mOhm (-0.035 %); every instant within 0.1 %.
+    Measured: DEM 3.1492 mOhm against 3.1503 mOhm (-0.035 %); every instant within 0.1 %; 0.035
+    loaded balls apart on average.
     """
     scene = make_scene(duration_s=DURATION_S)
     result = run_scene(scene)
     sig, angle = steady(result)
     theory_ohm, qs = quasistatic_resistance_ohm(scene, angle)
     dem_ohm = sig.resistance_ohm.to_numpy()
-    assert dem_ohm.mean() == pytest.approx(theory_ohm.mean(), rel=0.02)
+    assert dem_ohm.mean() == pytest.approx(theory_ohm.mean(), rel=1.5e-3)
     # not only on average: instant by instant, as the ball set turns
-    np.testing.assert_allclose(dem_ohm, theory_ohm, rtol=0.02)
-    # the two start from the same mechanical state (epsilon = 0.5, half the balls loaded)
-    assert sig.epsilon.mean() == pytest.approx(0.5, abs=0.01)
-    assert sig.loaded_balls.mean() == pytest.approx(qs.loaded_count.mean(), abs=0.5)
+    np.testing.assert_allclose(dem_ohm, theory_ohm, rtol=4e-3)
+    # the two start from the same mechanical state (epsilon = 0.5 exactly at zero clearance,
+    # seed eq. 15; half the balls loaded)
+    assert sig.epsilon.mean() == pytest.approx(0.5, abs=1e-15)
+    assert sig.loaded_balls.mean() == pytest.approx(qs.loaded_count.mean(), abs=0.15)
 
 
 # --- figures 8 and 11: trends -----------------------------------------------------------------
@@ -124,13 +127,13 @@ def test_resistance_falls_as_radial_load_rises_as_hertz_says(load_set):
     F_r, each ball's conductance (eq. 16) with S_i S_o ~ Q^(4/3), so R ~ F_r^(-4/3); the
     centrifugal force (~10 N per ball) is what keeps it from exact.
 
-    Measured: 7.896, 3.149, 1.252 mOhm at 0.1, 0.2, 0.4 C_r; exponent -1.328.
+    Measured: 7.896, 3.149, 1.252 mOhm at 0.1, 0.2, 0.4 C_r; exponent -1.328 (0.38 % from -4/3).
     """
     mean_ohm = np.array([mean_resistance_ohm(r) for r in load_set])
     assert np.all(np.diff(mean_ohm) < 0.0)
     loads = np.array(LOAD_FRACTIONS) * CR_N
     exponent = np.polyfit(np.log(loads), np.log(mean_ohm), 1)[0]
-    assert exponent == pytest.approx(-4.0 / 3.0, rel=0.03)
+    assert exponent == pytest.approx(-4.0 / 3.0, rel=0.015)
 
 
 @pytest.mark.validation
@@ -138,7 +141,8 @@ def test_resistance_falls_as_epsilon_rises(epsilon_set):
     """Seed fig. 11: at F_r = 5820 N, clearance -> none -> preload raises epsilon (eq. 15) and
     lowers R (a preload squeezes more balls). Each mean also matches the quasi-static theory.
 
-    Measured: epsilon 0.384, 0.500, 0.600 give 3.206, 3.149, 3.060 mOhm (theory within 0.05 %).
+    Measured: epsilon 0.384, 0.500, 0.600 give 3.206, 3.149, 3.060 mOhm (theory within 0.047 %;
+    required: 2 %).
     """
     eps = np.array([steady(r)[0].epsilon.mean() for r in epsilon_set])
     assert np.all(np.diff(eps) > 0.0)
@@ -146,7 +150,7 @@ def test_resistance_falls_as_epsilon_rises(epsilon_set):
     assert np.all(np.diff(mean_ohm) < 0.0)
     for result, dem_ohm in zip(epsilon_set, mean_ohm, strict=True):
         theory_ohm, _ = quasistatic_resistance_ohm(result.scene, steady(result)[1])
-        assert dem_ohm == pytest.approx(theory_ohm.mean(), rel=0.02)
+        assert dem_ohm == pytest.approx(theory_ohm.mean(), rel=2e-3)
 
 
 # --- electrical is an effect ------------------------------------------------------------------
@@ -232,20 +236,24 @@ def test_followed_ball_round_is_symmetric_and_keeps_outer_contact(run_scene):
     b = scene.bearing
     omega_c = result.steady().cage_speed_rad_s.mean()
     psi = rr.angle_rad
-    assert psi.max() - psi.min() == pytest.approx(2.0 * math.pi, abs=0.05)
+    # a whole round, to the angle a ball turns between two records (measured 0.009 rad short)
+    assert psi.max() - psi.min() == pytest.approx(2.0 * math.pi, abs=0.04)
 
+    # The peak at psi = 0 within the angle the ball turns between two records (measured 0.03
+    # deg off; a record is 0.57 deg); mirror symmetry to 0.19 % of the peak (measured).
     peak = rr.outer_force_n.max()
-    assert abs(psi[np.argmax(rr.outer_force_n)]) < math.radians(5.0)
+    record_step_rad = omega_c / scene.numerics.sample_rate_hz
+    assert abs(psi[np.argmax(rr.outer_force_n)]) < record_step_rad
     mirrored = np.interp(-psi, psi, rr.outer_force_n)
-    assert np.max(np.abs(mirrored - rr.outer_force_n)) < 0.03 * peak
+    assert np.max(np.abs(mirrored - rr.outer_force_n)) < 8e-3 * peak
 
     idle = np.abs(psi) > math.radians(110.0)  # beyond the load zone (psi_l = 90 deg)
     expected = b.ball_mass_kg * (omega_c**2 * b.pitch_radius_m + 9.80665 * np.cos(psi[idle]))
     assert np.all(rr.outer_force_n > 0.0)
-    # on average over the idle arc; instant by instant the DEM ball rattles by +-1 N about it
-    # (measured: 10.2 N against 9.7 N, instants from 9 to 11.6 N)
+    # on average over the idle arc; instant by instant the DEM ball rattles about it (measured:
+    # the mean 5.4 % above, no instant below 0.997 of it)
     assert rr.outer_force_n[idle].mean() == pytest.approx(expected.mean(), rel=0.1)
-    assert np.all(rr.outer_force_n[idle] > 0.5 * expected)
+    assert np.all(rr.outer_force_n[idle] > 0.99 * expected)
     assert np.all(rr.inner_force_n[idle] == 0.0)
 
 
@@ -261,12 +269,14 @@ def test_figure_9_clearance_gives_epsilon_0_3_in_the_dem(run_scene):
     )
     assert 30e-6 < clearance < 60e-6
     result = run_scene(make_scene(clearance_m=clearance, duration_s=0.02))
-    assert steady(result, 5e-3)[0].epsilon.mean() == pytest.approx(0.3, abs=0.005)
+    # measured 1.9e-4 from 0.3
+    assert steady(result, 5e-3)[0].epsilon.mean() == pytest.approx(0.3, abs=8e-4)
 
 
 # --- the command --------------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # seven short DEM runs and three figures: 2-9 s
 def test_figures_command_writes_the_three_pngs(tmp_path):
     from signatelec.cli import main
     from signatelec.studies.paper_figures import FIGURE_FILES

@@ -53,7 +53,8 @@ from signatelec.engines.laws import scene_law
 from signatelec.engines.results import DivergenceError
 from signatelec.engines.simulate import simulate
 from signatelec.physics import contact
-from signatelec.physics.electrical import OUTER_RING_NODE, ball_conductance
+from signatelec.physics.conductance import ball_conductance
+from signatelec.physics.electrical import OUTER_RING_NODE
 from signatelec.physics.quasistatic import ball_angles_rad, solve_equilibrium
 
 # The seed's 0.1 A/mm^2 current-density warning fires at the first contact instants of every

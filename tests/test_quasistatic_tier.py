@@ -1,9 +1,8 @@
 """The quasi-static tier (signatelec.engines.quasistatic.tier) and the fidelity presets.
 
-Expected values come from Harris (Rolling Bearing Analysis, 4th ed., 2001, table 7.1), from the
-module signatelec.physics.quasistatic (the reference implementation of the same equations) and from
-the
-DEM; each tolerance says where it comes from.
+Expected values come from Harris (Rolling Bearing Analysis, 4th ed., 2001, section 7.2-7.3 and
+table 7.1), from the equations the tier solves, written here independently, and from the DEM;
+each tolerance says where it comes from.
 """
 
 from __future__ import annotations
@@ -16,12 +15,13 @@ import pytest
 from conftest import make_scene
 
 from signatelec.cli import main
-from signatelec.config.bearing import Bearing
+from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, Bearing
 from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.dem.stability import stability_limit
 from signatelec.engines.fidelity import PRESETS, apply_fidelity, cage_mass_scale, scale_cage_mass
 from signatelec.engines.laws import scene_law
 from signatelec.engines.quasistatic.tier import (
+    TIER_RTOL,
     kinematic_ball_angles_rad,
     simulate_quasistatic,
     solve_ring_equilibrium,
@@ -29,11 +29,17 @@ from signatelec.engines.quasistatic.tier import (
 )
 from signatelec.engines.simulate import simulate
 from signatelec.physics.contact import hertz_overlap
-from signatelec.physics.quasistatic import harris_radial_integral, solve_equilibrium_over_time
+from signatelec.physics.load_distribution import harris_radial_integral
 
 SEED = Bearing()
 # 400 balls need a pitch circle of ~1 m to fit: the seed's balls and grooves on a large ring.
 MANY = SEED.with_(n_balls=400, inner_race_radius_m=1.0, outer_race_radius_m=1.0 + 2 * 6.3e-3)
+# A ball's series split is converged to ~1e-14 of its deflection; the forces then balance the
+# body force to round-off of Q ~ 2 kN. Measured over the scenes below: 9e-16 of the largest Q_o
+# on Q_o - Q_i, 1e-15 on d_i + d_o, 2.6e-14 (relative) for a ball resting on one race.
+BALL_ATOL = 4e-15
+APPROACH_RTOL = 4e-15
+ONE_RACE_RTOL = 1e-13
 
 
 def short(scene: Scene, instants: int = 3) -> Scene:
@@ -74,19 +80,28 @@ def test_tier_reproduces_harris_radial_integral_with_many_balls(epsilon, harris_
     result = simulate_quasistatic(scene)
     sig = result.signals
     # Round trip of eq. 15: the tier lands on the epsilon asked for. The 400-ball sum is a
-    # trapezoid rule of J_r's integrand, error O(h^2.5) ~ 3e-5 (test_quasistatic), so 1e-3.
-    assert sig.epsilon.to_numpy() == pytest.approx(epsilon, rel=1e-3)
+    # trapezoid rule of J_r's integrand, error O(h^2.5) ~ 3e-5 at most (test_quasistatic);
+    # measured 1.2e-7.
+    assert sig.epsilon.to_numpy() == pytest.approx(epsilon, rel=5e-7)
     jr = radial_load_n / (MANY.n_balls * sig.max_ball_load_n.to_numpy())
     # Harris' table 7.1 prints 4 decimals (5e-5) and the ball nearest psi = 0 is up to half a
-    # ball spacing (pi / 400) off it, cos(pi / 400) = 1 - 3e-5: 2e-4 in all.
-    np.testing.assert_allclose(jr, harris_jr, atol=2e-4)
-    np.testing.assert_allclose(jr, harris_radial_integral(sig.epsilon.to_numpy()), rtol=2e-4)
-    assert result.timings["fallback_instants"] == 0
+    # ball spacing (pi / 400) off it, cos(pi / 400) = 1 - 3e-5: 8e-5 published and geometric.
+    # Measured: 3.3e-5 from the table, 3.3e-5 relative from the exact J_r.
+    np.testing.assert_allclose(jr, harris_jr, atol=1e-4)
+    np.testing.assert_allclose(jr, harris_radial_integral(sig.epsilon.to_numpy()), rtol=1.2e-4)
+    # every instant in equilibrium, sum_k Q_k u_k = F_r along -y, to the tier's tolerance
+    psi = result.balls.angle_rad.to_numpy().reshape(-1, MANY.n_balls)
+    q = result.balls.inner_force_n.to_numpy().reshape(psi.shape)
+    residual = np.hypot(
+        (q * np.sin(psi)).sum(axis=1), radial_load_n - (q * np.cos(psi)).sum(axis=1)
+    )
+    assert np.all(residual <= TIER_RTOL * (radial_load_n + q.sum(axis=1)))
 
 
-# --- the compiled solver against signatelec.physics.quasistatic -----------------------------------
+# --- the tier's equilibrium against the equations it solves ---------------------------------------
 
 
+@pytest.mark.validation
 @pytest.mark.parametrize(
     "changes",
     [
@@ -101,32 +116,45 @@ def test_tier_reproduces_harris_radial_integral_with_many_balls(epsilon, harris_
     ],
     ids=lambda c: ",".join(f"{k}={v}" for k, v in c.items()) or "seed",
 )
-def test_solver_matches_quasistatic_module(changes):
+def test_tier_equilibrium_satisfies_harris_equations(changes):
+    """At every steady instant, with the scene's law (Hertz, Harris or linear):
+
+    - the ring is in equilibrium, sum_k Q_i,k u_k = F (Harris 7.3), F = F_r plus the ring's
+      weight with gravity;
+    - each ball touching both races balances its body force, Q_o - Q_i = m_b omega_c^2 r_p +
+      m_b g cos psi (Harris 7.2 and chapter 10), and a ball on one race carries its body force;
+    - the deflections of a ball on both races add up to the approach, d_i + d_o = s . u -
+      Delta_r with d = (Q / c)^(1/n) (seed eq. 14 radii, eqs 3 and 8).
+    """
     scene = Scene().with_overrides(duration_s=0.012, **changes)
+    b, op, e = scene.bearing, scene.operating, scene.effects
     psi = kinematic_ball_angles_rad(scene, steady_record_times_s(scene))
     eq = solve_ring_equilibrium(scene, psi)
     coef, n = scene_law(scene)
-    e = scene.effects
-    ref = solve_equilibrium_over_time(
-        psi,
-        scene.bearing,
-        scene.operating.radial_load_n,
-        scene.operating.clearance_m,
-        scene.operating.omega_rad_s,
-        law=e.contact_law,
-        centrifugal=e.centrifugal,
-        gravity=e.gravity,
-        linear_stiffness_n_m=coef[1] if n == 1.0 else None,
+    u = np.stack((np.sin(psi), -np.cos(psi)), axis=-1)
+    weight = b.inner_ring_mass_kg * STANDARD_GRAVITY_M_S2 if e.gravity else 0.0
+    load = op.radial_load_n + weight
+    residual = np.einsum("tz,tzk->tk", eq.inner_force_n, u) - [0.0, -load]
+    carried = load + eq.inner_force_n.sum(axis=1)
+    # TIER_RTOL = 1e-10 of the load carried is what the tier asks of its solver.
+    assert np.all(np.hypot(*residual.T) <= TIER_RTOL * carried)
+    omega_c = b.cage_speed_rad_s(op.omega_rad_s)
+    body = (b.ball_mass_kg * omega_c**2 * b.pitch_radius_m if e.centrifugal else 0.0) + (
+        b.ball_mass_kg * STANDARD_GRAVITY_M_S2 * np.cos(psi) if e.gravity else 0.0
     )
-    # The tier stops at a residual of 1e-10 of the load (TIER_RTOL), the module at 1e-12: forces
-    # and shift agree to ~1e-10; 1e-8 leaves margin for ill-conditioned instants.
-    scale = ref.inner_force_n.max()
-    np.testing.assert_allclose(eq.inner_force_n, ref.inner_force_n, rtol=0, atol=1e-8 * scale)
-    np.testing.assert_allclose(eq.outer_force_n, ref.outer_force_n, rtol=0, atol=1e-8 * scale)
+    body = np.broadcast_to(body, psi.shape)
+    both = (eq.inner_force_n > 0.0) & (eq.outer_force_n > 0.0)
+    scale = eq.outer_force_n.max()
     np.testing.assert_allclose(
-        eq.shift_xy_m, ref.shift_xy_m, rtol=0, atol=1e-8 * np.abs(ref.shift_xy_m).max()
+        (eq.outer_force_n - eq.inner_force_n)[both], body[both], rtol=0, atol=BALL_ATOL * scale
     )
-    assert eq.fallback_instants.size == 0
+    one_race = ~both & (eq.outer_force_n + eq.inner_force_n > 0.0)
+    np.testing.assert_allclose(
+        (eq.outer_force_n - eq.inner_force_n)[one_race], body[one_race], rtol=ONE_RACE_RTOL
+    )
+    deflection = (eq.inner_force_n / coef[0]) ** (1 / n) + (eq.outer_force_n / coef[1]) ** (1 / n)
+    approach = np.einsum("tzk,tk->tz", u, eq.shift_xy_m) - op.clearance_m
+    np.testing.assert_allclose(deflection[both], approach[both], rtol=APPROACH_RTOL)
 
 
 # --- tables, kinematics, DEM agreement and speed -------------------------------------------------
@@ -142,27 +170,29 @@ def test_tables_have_the_dem_columns_and_kinematics(run_scene):
         assert (a.dtypes == b.dtypes).all(), (a.dtypes, b.dtypes)
     # the DEM's recorded instants of the steady phase, on the same grid
     steady = dem.steady()
-    np.testing.assert_allclose(qs.signals.time_s, steady.time_s, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(qs.signals.time_s, steady.time_s, rtol=1e-15, atol=0)  # same grid
     assert (qs.signals.phase == "steady").all()
     b, omega = scene.bearing, scene.operating.omega_rad_s
     assert np.all(qs.balls.orbit_speed_rad_s == b.cage_speed_rad_s(omega))
     assert np.all(qs.balls.spin_rad_s == b.ball_spin_rad_s(omega))
     assert np.all(qs.balls.inner_tangential_n == 0.0)
-    # angles advance at the kinematic cage speed and stay in (-pi, pi]
+    # angles advance at the kinematic cage speed and stay in (-pi, pi] (measured 5.2e-14: the
+    # round-off of angle differences over 50 us steps)
     psi0 = qs.balls[qs.balls.ball == 0].angle_rad.to_numpy()
     step = np.angle(np.exp(1j * np.diff(psi0)))
     dt = np.diff(qs.signals.time_s.to_numpy())
-    np.testing.assert_allclose(step / dt, b.cage_speed_rad_s(omega), rtol=1e-9)
+    np.testing.assert_allclose(step / dt, b.cage_speed_rad_s(omega), rtol=2.5e-13)
     assert qs.balls.angle_rad.between(-math.pi, math.pi, inclusive="right").all()
     # ball centres on their radius, where the outer contact overlaps by the Hertz deflection
-    # of its force (seed eq. 8; every ball presses the outer race with its centrifugal force)
+    # of its force (seed eq. 8; every ball presses the outer race with its centrifugal force).
+    # Measured: 5.2e-18 m, the round-off of hypot(x, y) on a 35 mm radius.
     radius = np.hypot(qs.balls.x_m, qs.balls.y_m)
     nominal = b.outer_race_radius_m - b.ball_radius_m
     overlap = hertz_overlap(qs.balls.outer_force_n.to_numpy(), scene_law(scene)[0][1])
-    np.testing.assert_allclose(radius - nominal, overlap, rtol=1e-6, atol=1e-15)
-    # Kirchhoff: the ball currents add up to the injected current
+    np.testing.assert_allclose(radius - nominal, overlap, rtol=0, atol=2e-17)
+    # Kirchhoff: the ball currents add up to the injected current (measured 4.2e-16)
     total = qs.balls.groupby("time_s").current_a.sum()
-    np.testing.assert_allclose(total, scene.operating.injected_current_a, rtol=1e-9)
+    np.testing.assert_allclose(total, scene.operating.injected_current_a, rtol=2e-15)
 
 
 def test_energy_columns_when_asked():
@@ -173,20 +203,22 @@ def test_energy_columns_when_asked():
     assert (qs.signals.elastic_j > 0).all() and (qs.signals.kinetic_j > 0).all()
 
 
-def test_tier_agrees_with_dem_within_1_percent():
-    """Acceptance of issue 4 on the seed's scene (F_r = 5820 N, zero clearance, 500 rad/s).
+def test_tier_agrees_with_the_dem_on_the_seed_scene():
+    """The quasi-static tier against the DEM on the seed's scene (F_r = 5820 N, zero clearance,
+    500 rad/s): the tier is required to give the mean resistance within 1 % (and the largest
+    ball load within 2 %). Measured: 0.062 % and 0.12 %.
 
-    The speed-up (>= 100x) is a benchmark figure, not a test: the accuracy-cost study records the
-    tier's and the DEM's CPU time per simulated second (docs/accuracy_cost).
+    The speed-up is a benchmark figure, not a test: the accuracy-cost study records the tier's
+    and the DEM's CPU time per simulated second (docs/accuracy_cost).
     """
     scene = Scene()
     dem = simulate(scene)
     qs = simulate_quasistatic(scene)
     dem_r = dem.steady().resistance_ohm.mean()
     qs_r = qs.signals.resistance_ohm.mean()
-    assert qs_r == pytest.approx(dem_r, rel=0.01)
+    assert qs_r == pytest.approx(dem_r, rel=2.5e-3)
     assert qs.signals.max_ball_load_n.mean() == pytest.approx(
-        dem.steady().max_ball_load_n.mean(), rel=0.02
+        dem.steady().max_ball_load_n.mean(), rel=5e-3
     )
 
 
@@ -209,9 +241,10 @@ def test_presets():
     for name in ("fast", "balanced"):
         scene = apply_fidelity(seed, name)
         preset = PRESETS[name]
-        assert cage_mass_scale(scene) == pytest.approx(preset.cage_mass_scale, rel=1e-12)
+        # a density multiplied then divided back, a product: round-off at most (measured: 0)
+        assert cage_mass_scale(scene) == pytest.approx(preset.cage_mass_scale, rel=1e-15)
         limit = stability_limit(scene).dt_limit_s
-        assert scene.numerics.dt_s == pytest.approx(preset.dt_limit_fraction * limit, rel=1e-12)
+        assert scene.numerics.dt_s == pytest.approx(preset.dt_limit_fraction * limit, rel=1e-15)
         # the scaled cage survives the scene's JSON round trip (written with every result)
         assert Scene.from_dict(scene.to_dict()) == scene
         # presets do not compound; "reference" undoes the mass scaling
@@ -253,5 +286,5 @@ def test_cli_fidelity(tmp_path, capsys):
     argv = ["simulate", "--fidelity", "fast", "--dt", "1e-6", "--duration", "0.0075", "--quiet"]
     assert run_cli([*argv, "--out", str(out)]) == 0
     scene = Scene.from_dict(read_metadata(out / "signals.parquet")["scene"])
-    assert scene.numerics.dt_s == 1e-6 and cage_mass_scale(scene) == pytest.approx(80.0)
+    assert scene.numerics.dt_s == 1e-6 and cage_mass_scale(scene) == pytest.approx(80.0, rel=1e-15)
     assert run_cli(["simulate", "--fidelity", "fastest", "--out", str(tmp_path / "x")]) == 2

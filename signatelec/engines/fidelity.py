@@ -1,29 +1,29 @@
-"""Fidelity presets: named bundles of tier, numerics and effects (issue 4).
+"""Fidelity presets: named bundles of tier, numerics and effects (the fidelity ladder).
 
 ``apply_fidelity(scene, name)`` returns the scene run at one rung of the fidelity ladder:
 
 - ``"quasistatic"``: the quasi-static tier (:mod:`signatelec.engines.quasistatic.tier`), steady
-phase
-  only, no dynamics; milliseconds per scene.
+  phase only, no dynamics.
 - ``"dem"``: the DEM with the scene's own numerics (the paper's: velocity Verlet, dt = 1e-7 s,
   every seed effect, unless the scene says otherwise).
 - the presets of :data:`PRESETS`, chosen from the accuracy-cost study
-  (``docs/accuracy_cost/accuracy_cost.md``; errors relative to a dt = 1e-8 s reference, worst
-  over five scenes from 0.1 to 0.4 C_r, -10 um to +40 um):
+  (:mod:`signatelec.studies.accuracy_cost`), which measures each one's error against a
+  dt = 1e-8 s reference and its CPU cost relative to the paper's setting:
+  ``docs/accuracy_cost/accuracy_cost.md``, rows ``preset <name>``. The figures are quoted from
+  there only, so that they are those of the last run:
 
   - ``"fast"``: cage balls 80x heavier (mass scaling), symplectic Euler, dt at 0.9 of the
-    stability limit that leaves (~1.4e-6 s at the seed's load): ~1/11 of the paper's cost,
-    mean resistance within 0.03 % and ball-pass amplitude within 0.8 % of the reference;
+    stability limit that leaves: the cheap DEM setting that stays within the study's 1 % on
+    mean resistance and ball-pass amplitude;
   - ``"balanced"``: the paper's physics (no mass scaling), symplectic Euler, dt at 0.9 of the
-    stability limit (~1.9e-7 s): ~1/2 of the paper's cost, within 0.01 % and 0.3 %;
-  - ``"reference"``: dt = 1e-8 s, every seed effect: the study's reference (~10x the paper's
-    cost; the paper's dt = 1e-7 s is within 0.1 % of it on both measures).
+    stability limit;
+  - ``"reference"``: dt = 1e-8 s, every seed effect: the study's reference.
 
   Both cheaper presets use symplectic Euler, whose stability limit with contact damping is
   about twice velocity Verlet's (damping at v_n rather than at the predicted velocity; see
-  :mod:`signatelec.engines.dem.stability`) for the same accuracy at a given dt. Below about 1/10 of
-  the paper's cost the per-sample work (electrical network and tables at 20 kHz) dominates and
-  a larger dt no longer pays.
+  :mod:`signatelec.engines.dem.stability`) for the same accuracy at a given dt. Near the
+  ``fast`` preset's dt the per-sample work (electrical network and tables at 20 kHz) becomes a
+  large part of the cost, so a larger dt no longer pays.
 
 Cage-mass scaling is a numerical device: the stability limit of the seed's scene is set by the
 light polyamide cage balls (about 5 mg against 8 g for a steel ball); they carry no current and
@@ -62,23 +62,18 @@ class Preset:
 
 PRESETS: dict[str, Preset] = {
     "fast": Preset(
-        "DEM, cage balls 80x heavier, symplectic Euler, dt = 0.9 x stability limit "
-        "(~1.4e-6 s): ~1/11 of the paper's cost; mean resistance within 0.03 %, ball-pass "
-        "amplitude within 0.8 % of the reference (accuracy-cost study)",
+        "DEM, cage balls 80x heavier, symplectic Euler, dt = 0.9 x stability limit",
         integrator="euler",
         dt_limit_fraction=0.9,
         cage_mass_scale=80.0,
     ),
     "balanced": Preset(
-        "DEM, the paper's physics, symplectic Euler, dt = 0.9 x stability limit (~1.9e-7 s): "
-        "~1/2 of the paper's cost; mean resistance within 0.01 %, ball-pass amplitude within "
-        "0.3 % of the reference (accuracy-cost study)",
+        "DEM, the paper's physics, symplectic Euler, dt = 0.9 x stability limit",
         integrator="euler",
         dt_limit_fraction=0.9,
     ),
     "reference": Preset(
-        "DEM, dt = 1e-8 s, every seed effect: the accuracy-cost study's reference (~10x the "
-        "paper's cost)",
+        "DEM, dt = 1e-8 s, every seed effect: the accuracy-cost study's reference",
         dt_s=1e-8,
         effects=tuple(
             (name, True)
@@ -133,42 +128,29 @@ def scale_cage_mass(scene: Scene, factor: float) -> Scene:
         raise SceneError(f"cage mass scale {factor:g}: {exc}") from None
 
 
-def apply_fidelity(scene: Scene, name: str) -> Scene:
-    """The scene at fidelity ``name``: a tier (``"quasistatic"``, ``"dem"``) or a preset.
+def apply_fidelity(scene: Scene, fidelity: str | Preset) -> Scene:
+    """The scene at ``fidelity``: a tier (``"quasistatic"``, ``"dem"``), a preset's name or a
+    :class:`Preset` (the accuracy-cost study's settings are presets too).
 
-    A preset sets the integrator, the time step (absolute or from the stability limit of the
-    scene as it then is: load, clearance and speed matter), the cage-mass scaling and its
-    effects; the rest of the scene is kept. Unknown names raise :class:`SceneError`.
+    A preset sets, in this order, its effects, the cage-mass scaling, the integrator and the time
+    step (absolute, or from the stability limit of the scene as it then is: load, clearance and
+    speed matter); the rest of the scene is kept. Unknown names raise :class:`SceneError`.
     """
-    if name in FIDELITIES:
-        return scene.with_overrides(fidelity=name)
-    if name not in PRESETS:
-        raise SceneError(f"fidelity = {name!r}: must be one of {', '.join(FIDELITY_NAMES)}")
-    preset = PRESETS[name]
-    return apply_numerics(
-        scene,
-        cage_mass_scale=preset.cage_mass_scale,
-        dt_s=preset.dt_s,
-        dt_limit_fraction=preset.dt_limit_fraction,
-        fidelity=preset.fidelity,
-        integrator=preset.integrator,
-        **dict(preset.effects),
+    if isinstance(fidelity, Preset):
+        preset = fidelity
+    elif fidelity in FIDELITIES:
+        return scene.with_overrides(fidelity=fidelity)
+    elif fidelity in PRESETS:
+        preset = PRESETS[fidelity]
+    else:
+        raise SceneError(f"fidelity = {fidelity!r}: must be one of {', '.join(FIDELITY_NAMES)}")
+    overrides = {"fidelity": preset.fidelity, "integrator": preset.integrator}
+    scene = scale_cage_mass(
+        scene.with_overrides(**overrides, **dict(preset.effects)), preset.cage_mass_scale
     )
-
-
-def apply_numerics(
-    scene: Scene,
-    *,
-    cage_mass_scale: float = 1.0,
-    dt_s: float | None = None,
-    dt_limit_fraction: float | None = None,
-    **overrides,
-) -> Scene:
-    """``overrides`` (Scene.with_overrides keys), then the cage-mass scaling, then the time step:
-    ``dt_s``, or ``dt_limit_fraction`` of the stability limit the scene then has (None: keep)."""
-    scene = scale_cage_mass(scene.with_overrides(**overrides), cage_mass_scale)
-    if dt_limit_fraction is not None:
+    dt_s = preset.dt_s
+    if preset.dt_limit_fraction is not None:
         from signatelec.engines.dem.stability import stability_limit
 
-        dt_s = dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
+        dt_s = preset.dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
     return scene.with_overrides(dt_s=dt_s)

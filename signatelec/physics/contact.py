@@ -17,6 +17,8 @@ T. A. Harris, *Rolling Bearing Analysis*, 4th ed., Wiley, 2001, sections 6.3-6.4
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
@@ -59,9 +61,43 @@ def linear_normal_force(overlap_m, stiffness_n_m):
     return stiffness_n_m * np.maximum(overlap_m, 0.0)
 
 
+def linear_normal_stiffness(overlap_m, stiffness_n_m):
+    """Tangent stiffness of the linear law: K_n in contact, 0 apart (seed eq. 3), N/m.
+
+    ``sign(max(delta, 0))`` is 1 in contact and 0 apart without a branch, so the function
+    compiles for scalars and arrays alike.
+    """
+    return stiffness_n_m * np.sign(np.maximum(overlap_m, 0.0))
+
+
+def linear_overlap(force_n, stiffness_n_m):
+    """Overlap carrying an elastic force, the inverse of :func:`linear_normal_force`, m."""
+    return np.maximum(force_n, 0.0) / stiffness_n_m
+
+
 def linear_elastic_energy(overlap_m, stiffness_n_m):
+    """Energy stored in a linear contact, 1/2 K_n delta^2, J."""
     d = np.maximum(overlap_m, 0.0)
     return 0.5 * stiffness_n_m * d * d
+
+
+class NormalLaw(NamedTuple):
+    """The elastic normal law F = c delta^n of one exponent: four functions of (x, c)."""
+
+    force: Callable  # (overlap_m, coefficient) -> N
+    stiffness: Callable  # (overlap_m, coefficient) -> dF/d(delta), N/m
+    energy: Callable  # (overlap_m, coefficient) -> J
+    overlap: Callable  # (force_n, coefficient) -> m, the inverse of force
+
+
+#: The elastic laws by exponent (see :func:`law_coefficients`): 3/2 for Hertz and Harris
+#: (eqs 6-10), 1 for the linear law (eq. 3).
+NORMAL_LAWS = {
+    1.5: NormalLaw(hertz_normal_force, hertz_normal_stiffness, hertz_elastic_energy, hertz_overlap),
+    1.0: NormalLaw(
+        linear_normal_force, linear_normal_stiffness, linear_elastic_energy, linear_overlap
+    ),
+}
 
 
 def critical_damping(stiffness_n_m, reduced_mass_kg):

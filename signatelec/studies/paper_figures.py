@@ -37,13 +37,11 @@ from matplotlib.ticker import MaxNLocator
 from signatelec.physics.quasistatic import clearance_for_epsilon
 from signatelec.plots import new_figure, save_figure
 
-#: NSK basic dynamic load rating of the 6208, N (seed 2.2.2).
-DYNAMIC_LOAD_RATING_N = 29100.0
 #: Time after the set-up phases left for the spin-up transient to damp, s.
 SETTLE_S = 2e-3
 #: F_r of figures 7-8, as fractions of C_r (zero clearance, epsilon = 0.5).
 LOAD_FRACTIONS = (0.1, 0.2, 0.3, 0.4)
-#: F_r of figures 9-11, N (0.2 C_r).
+#: F_r of figures 9-11, N (0.2 C_r of the seed's 6208).
 EPSILON_SET_LOAD_N = 5820.0
 #: Clearances of figures 10-11 besides the one giving epsilon = 0.3: preload, none, clearance, m.
 EPSILON_SET_CLEARANCES_M = (-10e-6, 0.0, 20e-6)
@@ -66,8 +64,7 @@ def _wrap(angle_rad):
 
 def steady_mean(result, column: str, settle_s: float = SETTLE_S) -> float:
     """Mean of a ``signals`` column over the steady phase, ``settle_s`` after the set-up."""
-    sig = result.signals
-    steady = sig[sig.time_s > result.scene.setup_time_s + settle_s]
+    steady = result.steady(settle_s=settle_s)
     if steady.empty:
         steady = result.steady()
     return float(steady[column].mean())
@@ -75,12 +72,10 @@ def steady_mean(result, column: str, settle_s: float = SETTLE_S) -> float:
 
 def instant_time_s(result, settle_s: float = SETTLE_S) -> float:
     """A steady instant with a ball nearest the load direction psi = 0 (the seed's picture)."""
-    sc = result.scene
-    z = sc.bearing.n_balls
-    balls = result.balls
-    steady = balls[balls.time_s > sc.setup_time_s + settle_s]
+    z = result.scene.bearing.n_balls
+    steady = result.steady("balls", settle_s)
     if steady.empty:
-        steady = balls[balls.time_s > sc.setup_time_s] if len(result.steady()) else balls
+        steady = result.steady("balls") if len(result.steady()) else result.balls
     angle = np.abs(_wrap(steady.angle_rad.to_numpy())).reshape(-1, z).min(axis=1)
     times = steady.time_s.to_numpy().reshape(-1, z)[:, 0]
     return float(times[int(np.argmin(angle))])
@@ -128,14 +123,12 @@ def rolling_round(result, settle_s: float = SETTLE_S) -> RollingRound:
     the record holds no whole round (short runs), the ball with the longest stretch between two
     passages (or the ends of the record) is returned with ``complete=False``.
     """
-    sc = result.scene
-    z = sc.bearing.n_balls
-    balls = result.balls
-    steady = balls[balls.time_s > sc.setup_time_s + settle_s]
+    z = result.scene.bearing.n_balls
+    steady = result.steady("balls", settle_s)
     if len(steady) < 2 * z:
-        steady = balls[balls.time_s > sc.setup_time_s]
+        steady = result.steady("balls")
     if len(steady) < 2 * z:
-        steady = balls
+        steady = result.balls
     angle = _wrap(steady.angle_rad.to_numpy()).reshape(-1, z)
     outer = steady.outer_force_n.to_numpy().reshape(-1, z)
     inner = steady.inner_force_n.to_numpy().reshape(-1, z)
@@ -171,7 +164,8 @@ def rolling_round(result, settle_s: float = SETTLE_S) -> RollingRound:
 
 def load_label(result) -> str:
     fr = result.scene.operating.radial_load_n
-    return f"$F_r$ = {fr / DYNAMIC_LOAD_RATING_N:.1f} $C_r$ = {fr:.0f} N"
+    c_r = result.scene.bearing.dynamic_load_rating_n
+    return f"$F_r$ = {fr / c_r:.1f} $C_r$ = {fr:.0f} N"
 
 
 def clearance_label(result) -> str:
@@ -182,7 +176,9 @@ def clearance_label(result) -> str:
 
 def _two_sets(load_results: Sequence, epsilon_results: Sequence):
     """(results, legend label, panel title) of panels (a) several F_r and (b) several epsilon."""
-    load_n = epsilon_results[0].scene.operating.radial_load_n if epsilon_results else 5820.0
+    load_n = EPSILON_SET_LOAD_N
+    if epsilon_results:
+        load_n = epsilon_results[0].scene.operating.radial_load_n
     return (
         (load_results, load_label, r"(a) several $F_r$, $\Delta_r$ = 0 ($\epsilon$ = 0.5)"),
         (
@@ -386,7 +382,7 @@ def paper_cases(quick: bool = False, base=None) -> PaperCases:
             numerics=replace(base.numerics, duration_s=duration),
         )
 
-    loads = tuple(scene(round(f * DYNAMIC_LOAD_RATING_N, 6), 0.0) for f in LOAD_FRACTIONS)
+    loads = tuple(scene(round(f * b.dynamic_load_rating_n, 6), 0.0) for f in LOAD_FRACTIONS)
     eps_clearance = clearance_for_epsilon(b, EPSILON_SET_LOAD_N, omega, FIGURE_9_EPSILON)
     clearances = sorted((*EPSILON_SET_CLEARANCES_M, round(eps_clearance, 8)))
     epsilons = tuple(scene(EPSILON_SET_LOAD_N, c) for c in clearances)
