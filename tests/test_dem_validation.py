@@ -39,7 +39,7 @@ def test_steady_state_matches_quasistatic_hertz(run_scene, fraction, clearance_m
         radial_load_n=fraction * CR_N,
         clearance_m=clearance_m,
         duration_s=0.014,
-        effects={"electrical": False},
+        outputs={"electrical": False},
     )
     result = run_scene(scene)
     sig, angle, inner = steady_arrays(result)
@@ -82,7 +82,8 @@ def test_stribeck_max_load_at_zero_clearance(run_scene):
     scene = make_scene(
         radial_load_n=5820.0,
         duration_s=0.014,
-        effects={"electrical": False, "centrifugal": False, "gravity": False},
+        effects={"centrifugal": "compensated", "gravity": "none"},
+        outputs={"electrical": False},
     )
     sig, angle, inner = steady_arrays(run_scene(scene))
     z = scene.bearing.n_balls
@@ -93,7 +94,7 @@ def test_stribeck_max_load_at_zero_clearance(run_scene):
 
 def test_cage_speed_and_ball_spin_follow_rolling_kinematics(run_scene):
     """Pure rolling: cage speed omega R_inn / (R_inn + R_out), ball spin -omega_c r_p / R_b."""
-    scene = make_scene(duration_s=0.014, effects={"electrical": False})
+    scene = make_scene(duration_s=0.014, outputs={"electrical": False})
     result = run_scene(scene)
     t0 = scene.setup_time_s + SETTLE_S
     sig = result.signals[result.signals.time_s > t0]

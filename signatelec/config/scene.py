@@ -8,10 +8,14 @@ TOML layout (every section and key optional; defaults are the seed's scene, sect
     [bearing]      # fields of signatelec.config.bearing.Bearing (radii, n_balls, materials, ...)
     [operating]    radial_load_n, clearance_m, omega_rad_s, initial_ball_angle_rad,
                    injected_current_a
-    [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp
-    [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal,
-                   clearance_phase, spin_up, electrical, energy
+    [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp, clearance_phase,
+                   spin_up
+    [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal
+    [outputs]      electrical, energy
     [numerics]     dt_s, duration_s, sample_rate_hz, integrator, fidelity, linear_stiffness_n_m
+
+Every choice (a model name or a switch) is declared once in :data:`OPTIONS` with its allowed
+values, default and cost; ``[effects]`` holds the physics, each option naming a model.
 """
 
 from __future__ import annotations
@@ -31,12 +35,152 @@ class SceneError(ValueError):
     """A scene value that is not allowed; the message is one line naming key, value, rule."""
 
 
-INTEGRATORS = ("verlet", "euler")
-TANGENTIAL_MODELS = ("seed", "spring")
-LOAD_RAMPS = ("smooth", "step")
-#: "dem": the DEM kernel; "quasistatic": the steady phase by signatelec.engines.quasistatic.tier (no
-#: dynamics: ~1 ms instead of ~0.2 s for the seed's scene). Presets: signatelec.engines.fidelity.
 FIDELITIES = ("dem", "quasistatic")
+
+
+@dataclass(frozen=True)
+class Option:
+    """One choice of a scene, declared once in :data:`OPTIONS`.
+
+    A physics option names a model; its ``off`` value is the null model that ``false`` selects
+    (``true`` selects ``default``). A switch takes true or false. ``kernel``: the DEM kernel is
+    compiled per value (:class:`signatelec.engines.dem.spec.KernelSpec` reads these options).
+    """
+
+    section: str
+    name: str
+    values: tuple
+    default: str | bool
+    description: str
+    kernel: bool = False
+    off: str | None = None
+
+    @property
+    def switch(self) -> bool:
+        return isinstance(self.default, bool)
+
+    def normalise(self, value: Any) -> Any:
+        """The model a boolean names (``true``: the default, ``false``: ``off``), else value."""
+        if self.off is not None and isinstance(value, bool):
+            return self.default if value else self.off
+        return value
+
+    def accepts(self, value: Any) -> bool:
+        if self.switch:
+            return isinstance(value, bool)
+        value = self.normalise(value)
+        return isinstance(value, str) and value in self.values
+
+    @property
+    def rule(self) -> str:
+        if self.switch:
+            return "must be true or false"
+        text = f"must be one of {', '.join(self.values)}"
+        if self.off is not None:
+            text += f" (true: {self.default}, false: {self.off})"
+        return text
+
+
+#: Every choice of a scene: what the TOML accepts, the defaults of the dataclasses below, the
+#: kernel's specialisation and the bench's effect sets all come from this table. Costs: CPU time
+#: per step of the seed scene against the 0.5 us of all seed effects (``signatelec bench``).
+OPTIONS: tuple[Option, ...] = (
+    Option(
+        "effects", "cage", ("balls", "none"), "balls",
+        "balls: 13 polyamide cage balls between two frictionless boundaries (table 2), ~45 % of "
+        "the step and the stability limit; none: balls touch each other (steel, frictionless)",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "friction", ("coulomb", "none"), "coulomb",
+        "coulomb: tangential forces with the Coulomb limit (eq. 4) on ball/raceway contacts, "
+        "~10 % of the step; none: frictionless (also when bearing.friction_coefficient = 0)",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "damping", ("critical", "none"), "critical",
+        "critical: critical viscous damping (eq. 5) on every contact, ~5 % of the step; none: "
+        "elastic contacts",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "contact_law", CONTACT_LAWS, "hertz",
+        "hertz (eqs 6-9); harris (eqs 10-11, Harris' coefficients, same cost); linear (eq. 3, "
+        "Hertz secant stiffness at Stribeck's load, ~20 % cheaper)",
+        kernel=True,
+    ),
+    Option(
+        "effects", "tangential", ("seed", "spring"), "seed",
+        "seed: delta_t = v_t dt (eq. 3, first order in dt); spring: accumulated delta_t "
+        "(second order, same cost)",
+        kernel=True,
+    ),
+    Option(
+        "effects", "gravity", ("standard", "none"), "standard",
+        "standard: weight of every body along -y (9.80665 m/s^2), no cost; none: weightless",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "centrifugal", ("inertial", "compensated"), "inertial",
+        "inertial: the inertial-frame DEM carries it, no cost; compensated: the centripetal "
+        "force m v_t^2 / r on each ball cancels it, to compare with centrifugal-free theory",
+        kernel=True, off="compensated",
+    ),
+    Option(
+        "procedure", "clearance_phase", (True, False), True,
+        "move the outer race to R_out + clearance over clearance_time_s (eq. 14); false: at once",
+    ),
+    Option(
+        "procedure", "spin_up", (True, False), True,
+        "sinusoidal spin-up of the inner ring over spin_up_time_s; false: omega as a step",
+    ),
+    Option(
+        "procedure", "load_ramp", ("smooth", "step"), "smooth",
+        "smooth: F_r rises along (1 - cos)/2 over load_time_s; step: F_r applied at once",
+    ),
+    Option(
+        "outputs", "electrical", (True, False), True,
+        "contact ellipses, eq. 16 and the Kirchhoff network at every recorded instant "
+        "(3-8 us per instant)",
+    ),
+    Option(
+        "outputs", "energy", (True, False), False,
+        "energy balance (work in, dissipation, kinetic, elastic) per recorded instant, "
+        "~10 % of the step",
+        kernel=True,
+    ),
+    Option(
+        "numerics", "integrator", ("verlet", "euler"), "verlet",
+        "verlet: velocity Verlet, 2nd order; euler: symplectic Euler, 1st order, same cost per "
+        "step and a stability limit about twice Verlet's with contact damping",
+        kernel=True,
+    ),
+    Option(
+        "numerics", "fidelity", FIDELITIES, "dem",
+        "dem: the DEM kernel; quasistatic: the steady phase by the quasi-static tier (no "
+        "dynamics, ~1 ms instead of ~0.2 s for the seed's scene; presets: engines.fidelity)",
+    ),
+)  # fmt: skip
+OPTION_TABLE: dict[tuple[str, str], Option] = {(o.section, o.name): o for o in OPTIONS}
+#: Keys the earlier layout had under [effects], and the section that holds them now.
+_MOVED = {
+    "clearance_phase": "procedure",
+    "spin_up": "procedure",
+    "electrical": "outputs",
+    "energy": "outputs",
+}
+
+
+def _default(section: str, name: str) -> Any:
+    return OPTION_TABLE[(section, name)].default
+
+
+def _normalise(obj: Any, section: str) -> None:
+    """Map the booleans of physics options to the model they name (frozen dataclasses)."""
+    for f in fields(obj):
+        option = OPTION_TABLE.get((section, f.name))
+        if option is not None:
+            object.__setattr__(obj, f.name, option.normalise(getattr(obj, f.name)))
 
 
 @dataclass(frozen=True)
@@ -57,46 +201,40 @@ class Operating:
 
 @dataclass(frozen=True)
 class Procedure:
-    """Durations of the seed's set-up phases (2.2.1, 2.2.2): clearance, load, spin-up."""
+    """The seed's set-up phases (2.2.1, 2.2.2): clearance, load, spin-up; switches in OPTIONS."""
 
     clearance_time_s: float = 0.5e-3
     load_time_s: float = 1.5e-3
     spin_up_time_s: float = 5.0e-3
-    #: "smooth": F_r rises along (1 - cos)/2 over load_time_s; "step": F_r applied at once.
-    load_ramp: str = "smooth"
+    load_ramp: str = _default("procedure", "load_ramp")
+    clearance_phase: bool = _default("procedure", "clearance_phase")
+    spin_up: bool = _default("procedure", "spin_up")
 
 
 @dataclass(frozen=True)
 class Effects:
-    """Which physics a scene simulates. An effect that is off is not compiled into the kernel.
+    """The physics a scene simulates: each option names a model (see OPTIONS); a model that is
+    not chosen is not compiled into the kernel. ``true``/``false`` name the default model and
+    the null model of an on/off option (``cage = false`` is ``cage = "none"``)."""
 
-    - ``cage``: the 13 polyamide cage balls between two frictionless boundaries (off: balls may
-      touch each other, steel on steel, frictionless).
-    - ``friction``: Coulomb friction (eq. 4) and tangential forces on ball/raceway contacts.
-    - ``damping``: critical viscous damping (eq. 5) on every contact.
-    - ``contact_law``: "hertz" (eqs 6-9), "harris" (eqs 10-11) or "linear" (eq. 3).
-    - ``tangential``: "seed" (delta_t = v_t dt, eq. 3) or "spring" (accumulated delta_t).
-    - ``gravity``: weight of balls, cage balls and inner ring along -y.
-    - ``centrifugal``: the inertial-frame DEM carries it by itself; off adds the centripetal force
-      m v_t^2 / r to each ball so results compare with centrifugal-free theory.
-    - ``clearance_phase``: move the outer race to R_out + clearance gradually (eq. 14); off: at
-      once.
-    - ``spin_up``: sinusoidal spin-up of the inner ring; off: omega applied as a step.
-    - ``electrical``: contact ellipses, eq. 16 and the Kirchhoff network, per recorded instant.
-    - ``energy``: accumulate an energy balance (work in, dissipation, kinetic, elastic).
-    """
+    cage: str = _default("effects", "cage")
+    friction: str = _default("effects", "friction")
+    damping: str = _default("effects", "damping")
+    contact_law: str = _default("effects", "contact_law")
+    tangential: str = _default("effects", "tangential")
+    gravity: str = _default("effects", "gravity")
+    centrifugal: str = _default("effects", "centrifugal")
 
-    cage: bool = True
-    friction: bool = True
-    damping: bool = True
-    contact_law: str = "hertz"
-    tangential: str = "seed"
-    gravity: bool = True
-    centrifugal: bool = True
-    clearance_phase: bool = True
-    spin_up: bool = True
-    electrical: bool = True
-    energy: bool = False
+    def __post_init__(self) -> None:
+        _normalise(self, "effects")
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What a run computes besides the motion (see OPTIONS)."""
+
+    electrical: bool = _default("outputs", "electrical")
+    energy: bool = _default("outputs", "energy")
 
 
 @dataclass(frozen=True)
@@ -104,19 +242,20 @@ class Numerics:
     dt_s: float = 1e-7
     duration_s: float = 0.03
     sample_rate_hz: float = 20000.0
-    integrator: str = "verlet"
-    fidelity: str = "dem"
+    integrator: str = _default("numerics", "integrator")
+    fidelity: str = _default("numerics", "fidelity")
     #: Linear-law stiffness of the ball/outer-raceway contact, N/m; 0 means the Hertz secant
     #: stiffness at the Stribeck load 4.37 F_r / Z (see contact.law_coefficients).
     linear_stiffness_n_m: float = 0.0
 
 
-_CHOICES = {
-    ("effects", "contact_law"): CONTACT_LAWS,
-    ("effects", "tangential"): TANGENTIAL_MODELS,
-    ("procedure", "load_ramp"): LOAD_RAMPS,
-    ("numerics", "integrator"): INTEGRATORS,
-    ("numerics", "fidelity"): FIDELITIES,
+#: The sections of a scene after [bearing], in TOML order.
+SECTIONS: dict[str, type] = {
+    "operating": Operating,
+    "procedure": Procedure,
+    "effects": Effects,
+    "outputs": Outputs,
+    "numerics": Numerics,
 }
 
 
@@ -126,6 +265,7 @@ class Scene:
     operating: Operating = field(default_factory=Operating)
     procedure: Procedure = field(default_factory=Procedure)
     effects: Effects = field(default_factory=Effects)
+    outputs: Outputs = field(default_factory=Outputs)
     numerics: Numerics = field(default_factory=Numerics)
 
     def __post_init__(self) -> None:
@@ -149,12 +289,8 @@ class Scene:
 
     # --- (de)serialisation ----------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "bearing": self.bearing.to_dict(),
-            "operating": asdict(self.operating),
-            "procedure": asdict(self.procedure),
-            "effects": asdict(self.effects),
-            "numerics": asdict(self.numerics),
+        return {"bearing": self.bearing.to_dict()} | {
+            name: asdict(getattr(self, name)) for name in SECTIONS
         }
 
     def to_json(self) -> str:
@@ -162,12 +298,7 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Scene:
-        sections = {
-            "operating": Operating,
-            "procedure": Procedure,
-            "effects": Effects,
-            "numerics": Numerics,
-        }
+        sections = SECTIONS
         if not isinstance(data, dict):
             raise SceneError(f"scene = {data!r}: must be a table of sections")
         kwargs: dict[str, Any] = {}
@@ -194,7 +325,7 @@ class Scene:
 
     def with_overrides(self, **changes: Any) -> Scene:
         """Copy with flat overrides such as ``radial_load_n=...`` or ``dt_s=...`` (None skipped)."""
-        parts = {"operating": {}, "procedure": {}, "effects": {}, "numerics": {}}
+        parts: dict[str, dict] = {name: {} for name in SECTIONS}
         for key, value in changes.items():
             if value is None:
                 continue
@@ -233,19 +364,19 @@ def _section(name: str, cls: type, data: Any) -> Any:
     known = {f.name: f for f in fields(cls)}
     for key, value in data.items():
         if key not in known:
+            moved = f"; [{_MOVED[key]}] holds it now" if key in _MOVED else ""
             raise SceneError(
-                f"{name}.{key} = {_short(value)}: unknown key; allowed: {', '.join(known)}"
+                f"{name}.{key} = {_short(value)}: unknown key; allowed: {', '.join(known)}{moved}"
             )
         default = known[key].default
         where = f"{name}.{key} = {_short(value)}"
-        if isinstance(default, bool):
-            if not isinstance(value, bool):
-                raise SceneError(f"{where}: must be true or false")
+        option = OPTION_TABLE.get((name, key))
+        if option is not None:
+            if not option.accepts(value):
+                raise SceneError(f"{where}: {option.rule}")
         elif isinstance(default, float):
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise SceneError(f"{where}: must be a number")
-        elif isinstance(default, str) and not isinstance(value, str):
-            raise SceneError(f"{where}: must be one of {', '.join(_CHOICES[(name, key)])}")
     converted = {k: float(v) if isinstance(known[k].default, float) else v for k, v in data.items()}
     return cls(**converted)
 
@@ -284,16 +415,14 @@ def ball_load_limit_n(bearing: Bearing) -> float:
 
 def validate_scene(scene: Scene) -> None:
     """Raise :class:`SceneError` on the first value that is not allowed."""
-    for section in ("operating", "procedure", "effects", "numerics"):
+    for section in SECTIONS:
         obj = getattr(scene, section)
         for f in fields(obj):
             value = getattr(obj, f.name)
             key = f"{section}.{f.name}"
-            if (section, f.name) in _CHOICES:
-                choices = _CHOICES[(section, f.name)]
-                _check(value in choices, key, value, f"must be one of {', '.join(choices)}")
-            elif isinstance(f.default, bool):
-                _check(isinstance(value, bool), key, value, "must be true or false")
+            option = OPTION_TABLE.get((section, f.name))
+            if option is not None:
+                _check(option.accepts(value), key, value, option.rule)
             elif isinstance(f.default, float):
                 _finite(key, value)
     op, pr, nu = scene.operating, scene.procedure, scene.numerics

@@ -1,4 +1,4 @@
-"""Fidelity presets: named bundles of tier, numerics and effects (issue 4).
+"""Fidelity presets: named bundles of tier, numerics and effects (the accuracy-cost study).
 
 ``apply_fidelity(scene, name)`` returns the scene run at one rung of the fidelity ladder:
 
@@ -38,7 +38,7 @@ import re
 from dataclasses import dataclass, replace
 
 from signatelec.config.bearing import MATERIALS, Material
-from signatelec.config.scene import FIDELITIES, Scene, SceneError
+from signatelec.config.scene import FIDELITIES, OPTIONS, Scene, SceneError
 
 _SCALED = re.compile(r"^(?P<base>.*) \(mass x(?P<factor>[0-9.eE+-]+)\)$")
 
@@ -80,11 +80,8 @@ PRESETS: dict[str, Preset] = {
         "DEM, dt = 1e-8 s, every seed effect: the accuracy-cost study's reference (~10x the "
         "paper's cost)",
         dt_s=1e-8,
-        effects=tuple(
-            (name, True)
-            for name in ("cage", "friction", "damping", "gravity", "centrifugal", "spin_up")
-        )
-        + (("contact_law", "hertz"), ("tangential", "seed")),
+        effects=tuple((o.name, o.default) for o in OPTIONS if o.section == "effects")
+        + (("spin_up", True),),
     ),
 }
 

@@ -17,9 +17,10 @@ At each instant:
   :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` (Harris 2001, 7.2-7.3): each
   ball
   has its inner and outer contacts in series under the scene's contact law (Hertz, Harris or
-  linear, with the DEM's coefficients), carries its centrifugal force (``effects.centrifugal``)
-  and, with ``effects.gravity``, the radial part of its weight; the ring carries F_r and its own
-  weight; the clearance (or preload) is the scene's final one (seed eq. 14);
+  linear, with the DEM's coefficients), carries its centrifugal force (``effects.centrifugal =
+  "inertial"``) and, with ``effects.gravity = "standard"``, the radial part of its weight; the
+  ring carries F_r and its own weight; the clearance (or preload) is the scene's final one
+  (seed eq. 14);
 - the ball centre lies on its radius where its outer contact overlap is the solved one;
 - the electrical columns come from those loads by
 :func:`signatelec.physics.electrical.bearing_electrics`
@@ -53,7 +54,7 @@ Measured against the DEM (``docs/accuracy_cost``, five scenes from 0.1 to 0.4 C_
 +8 %, part of the DEM's ripple being dynamics. On the seed's scene it is 120-150x faster than the
 DEM and 0.06 % from its mean resistance.
 
-With ``effects.energy`` the tier fills ``elastic_j`` (raceway contacts) and ``kinetic_j`` (rigid
+With ``outputs.energy`` the tier fills ``elastic_j`` (raceway contacts) and ``kinetic_j`` (rigid
 kinematic motion of balls and cage balls); ``work_in_j`` and ``dissipated_j`` are NaN (the
 quasi-static state has no history).
 
@@ -417,13 +418,13 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingEq
     ci, co = float(coef[INNER]), float(coef[OUTER])
     # quasistatic.ball_body_force_n, with cos psi = -u_y at hand
     body = np.zeros(psi.shape)
-    if e.centrifugal:
+    if e.centrifugal == "inertial":
         body += b.ball_mass_kg * b.cage_speed_rad_s(op.omega_rad_s) ** 2 * b.pitch_radius_m
-    if e.gravity:
+    if e.gravity == "standard":
         body -= b.ball_mass_kg * STANDARD_GRAVITY_M_S2 * uy
     # overlap under the body force alone, on the race it presses the ball against
     reach = (np.abs(body) / np.where(body > 0.0, co, ci)) ** (1.0 / n)
-    weight = b.inner_ring_mass_kg * STANDARD_GRAVITY_M_S2 if e.gravity else 0.0
+    weight = b.inner_ring_mass_kg * STANDARD_GRAVITY_M_S2 if e.gravity == "standard" else 0.0
     fx, fy = 0.0, -(op.radial_load_n + weight)
     z = b.n_balls
     ball_load = max(abs(fy) / z, float(np.abs(body).max(initial=0.0)), 1.0)
@@ -461,8 +462,8 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingEq
             op.clearance_m,
             op.omega_rad_s,
             law=e.contact_law,
-            centrifugal=e.centrifugal,
-            gravity=e.gravity,
+            centrifugal=e.centrifugal == "inertial",
+            gravity=e.gravity == "standard",
             linear_stiffness_n_m=co if n == 1.0 else None,
         )
         shift[bad], qi[bad], qo[bad] = state.shift_xy_m, state.inner_force_n, state.outer_force_n
@@ -489,7 +490,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
     del progress
     t_start = time.perf_counter()
     scene = scene or Scene()
-    b, op, e = scene.bearing, scene.operating, scene.effects
+    b, op = scene.bearing, scene.operating
     z = b.n_balls
     t = steady_record_times_s(scene)
     n_rec = t.size
@@ -540,7 +541,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "loaded_balls": (eq.inner_force_n > 0.0).sum(axis=1).astype(np.int32),
         "max_ball_load_n": eq.inner_force_n.max(axis=1, initial=0.0),
     }
-    if e.energy:
+    if scene.outputs.energy:
         signals.update(_energy_columns(scene, eq, radius, omega_c, spin))
     timings = {
         "tier": "quasistatic",
@@ -553,7 +554,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "us_per_instant": 1e6 * run_s / max(n_rec, 1),
         "fallback_instants": int(eq.fallback_instants.size),
     }
-    if e.electrical:
+    if scene.outputs.electrical:
         from signatelec.physics.electrical import bearing_electrics
 
         t0 = time.perf_counter()
@@ -587,5 +588,5 @@ def _energy_columns(scene: Scene, eq: RingEquilibrium, radius, omega_c, spin) ->
         "work_in_j": nan,
         "dissipated_j": nan.copy(),
         "elastic_j": elastic.sum(axis=1),
-        "kinetic_j": kinetic.sum(axis=1) + (cage if scene.effects.cage else 0.0),
+        "kinetic_j": kinetic.sum(axis=1) + (cage if scene.effects.cage == "balls" else 0.0),
     }
