@@ -138,6 +138,12 @@ def cache_key(source: str, sources: dict[str, str], versions: dict[str, str]) ->
     return h.hexdigest()[:24]
 
 
+def kernel_name(spec: KernelSpec) -> tuple[str, str]:
+    """Module name (from :func:`cache_key`) and specialised source of the kernel for ``spec``."""
+    source = specialise(TEMPLATE.read_text(encoding="utf-8"), spec)
+    return f"signatelec_kernel_{cache_key(source, kernel_sources(), versions())}", source
+
+
 def get_kernel(spec: KernelSpec) -> ModuleType:
     """The kernel module for ``spec`` (numba compiles or loads it on first call; see
     :func:`prepare`)."""
@@ -145,8 +151,7 @@ def get_kernel(spec: KernelSpec) -> ModuleType:
     loaded = _LOADED.get((spec, directory))
     if loaded is not None:
         return loaded
-    source = specialise(TEMPLATE.read_text(encoding="utf-8"), spec)
-    name = f"signatelec_kernel_{cache_key(source, kernel_sources(), versions())}"
+    name, source = kernel_name(spec)
     path = directory / f"{name}.py"
     _write_source(path, source)
     module = _import(name, path, spec)
