@@ -10,9 +10,9 @@ dataset workers) only loads it.
 numba checks a cached function against the timestamp of its own file only, not against the
 functions it calls from other files. The key therefore hashes the specialised source, the text of
 every signatelec module the kernel imports, transitively (:func:`kernel_sources`: found from the
-import statements, so a new import joins the key by itself), and the numba,
-numpy, Python and signatelec versions (:func:`versions`). Editing a contact law in
-physics/contact.py, or installing another version, gives another file and a fresh compile.
+import statements, so a new import joins the key by itself), and the numba, numpy, Python and
+signatelec versions (:func:`versions`). Editing a contact law in physics/contact.py, or
+installing another version, gives another file name and a fresh compile.
 
 A damaged cache is rebuilt, not fatal: a generated file that differs from what it should hold,
 or numba index/data files it cannot read, give one warning line and a fresh compile; an
