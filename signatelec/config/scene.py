@@ -82,31 +82,31 @@ class Option:
 
 
 #: Every choice of a scene: what the TOML accepts, the defaults of the dataclasses below, the
-#: kernel's specialisation and the bench's effect sets all come from this table. Costs: CPU time
-#: per step of the seed scene against the 0.5 us of all seed effects (``signatelec bench``).
+#: kernel's specialisation and the bench's cases all come from this table. Costs: shares of the
+#: seed scene's CPU time per step, ~0.45 us (``signatelec bench``).
 OPTIONS: tuple[Option, ...] = (
     Option(
         "effects", "cage", ("balls", "none"), "balls",
-        "balls: 13 polyamide cage balls between two frictionless boundaries (table 2), ~45 % of "
-        "the step and the stability limit; none: balls touch each other (steel, frictionless)",
+        "balls: 13 polyamide cage balls between two frictionless boundaries (table 2), ~40 % of "
+        "the step, and they set the stability limit; none: balls touch (steel, frictionless)",
         kernel=True, off="none",
     ),
     Option(
         "effects", "friction", ("coulomb", "none"), "coulomb",
         "coulomb: tangential forces with the Coulomb limit (eq. 4) on ball/raceway contacts, "
-        "~10 % of the step; none: frictionless (also when bearing.friction_coefficient = 0)",
+        "~6 % of the step; none: frictionless (also when bearing.friction_coefficient = 0)",
         kernel=True, off="none",
     ),
     Option(
         "effects", "damping", ("critical", "none"), "critical",
-        "critical: critical viscous damping (eq. 5) on every contact, ~5 % of the step; none: "
+        "critical: critical viscous damping (eq. 5) on every contact, ~15 % of the step; none: "
         "elastic contacts",
         kernel=True, off="none",
     ),
     Option(
         "effects", "contact_law", CONTACT_LAWS, "hertz",
-        "hertz (eqs 6-9); harris (eqs 10-11, Harris' coefficients, same cost); linear (eq. 3, "
-        "Hertz secant stiffness at Stribeck's load, ~20 % cheaper)",
+        "hertz (eqs 6-9); harris (eqs 10-11, Harris' coefficients, same kernel); linear (eq. 3, "
+        "Hertz secant stiffness at Stribeck's load, ~1/3 cheaper: no roots)",
         kernel=True,
     ),
     Option(
@@ -141,12 +141,12 @@ OPTIONS: tuple[Option, ...] = (
     Option(
         "outputs", "electrical", (True, False), True,
         "contact ellipses, eq. 16 and the Kirchhoff network at every recorded instant "
-        "(3-8 us per instant)",
+        "(~3 us per instant, ~1 % of a seed run at 20 kHz)",
     ),
     Option(
         "outputs", "energy", (True, False), False,
         "energy balance (work in, dissipation, kinetic, elastic) per recorded instant, "
-        "~10 % of the step",
+        "~20 % of the step",
         kernel=True,
     ),
     Option(
