@@ -84,6 +84,10 @@ def test_cache_key_covers_every_module_the_kernel_compiles():
 
 def test_specialise_writes_exactly_the_spec():
     template = build.TEMPLATE.read_text()
+    # the template's own block reads as the seed scene's kernel
+    listed = build._assignments(build._BLOCK.search(template).group(1))
+    seed = KernelSpec.default().flags()
+    assert listed == {name: seed[name] for name in listed}
     spec = KernelSpec.from_scene(
         Scene().with_overrides(cage="none", contact_law="linear", energy=True, integrator="euler")
     )

@@ -22,6 +22,7 @@ v + a dt, which keeps 2nd order) or symplectic Euler (1st order, v then x).
 
 # fmt: off
 # --- kernel spec: build.specialise rewrites this block from a KernelSpec ----------------------
+# (here: the flags this source reads, at the seed scene's values)
 CAGE_BALLS = True
 CAGE_NONE = False
 FRICTION_COULOMB = True
@@ -29,7 +30,6 @@ DAMPING_CRITICAL = True
 CONTACT_LAW_LINEAR = False
 TANGENTIAL_SPRING = False
 GRAVITY_STANDARD = True
-CENTRIFUGAL_INERTIAL = True
 CENTRIFUGAL_COMPENSATED = False
 ENERGY = False
 INTEGRATOR_VERLET = True
