@@ -208,13 +208,21 @@ def summary(result, out: str | None = None) -> str:
     show_default=True,
     help="Compile into an empty cache so compile time is measured.",
 )
-def bench(out, duration_s, fresh_cache):
-    """Cost of the seed scene and of reduced effect sets (us per step, compile apart)."""
-    from signatelec.studies.bench import format_table, run_bench
+@click.option(
+    "--case",
+    "cases",
+    multiple=True,
+    help="Run only this case (repeatable): seed, cage=none, contact_law=linear, minimal, ... "
+    "(default: every case).",
+)
+def bench(out, duration_s, fresh_cache, cases):
+    """Cost of the seed scene and of each scene option (us per step, compile apart)."""
+    from signatelec.studies.bench import format_table, run_bench, select_cases
 
     check_writable_file(out, suffixes=(".json",))
     try:
-        report = run_bench(duration_s=duration_s, fresh_cache=fresh_cache)
+        select_cases(cases)
+        report = run_bench(duration_s=duration_s, fresh_cache=fresh_cache, cases=cases)
     except SceneError as exc:
         raise InputError(str(exc)) from None
     click.echo(format_table(report))

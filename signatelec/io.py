@@ -1,7 +1,10 @@
-"""Files: Parquet tables with the scene in the schema metadata, written atomically.
+"""Files: Parquet tables with the scene in the schema metadata, written atomically; the cache.
 
 Every output is written under a temporary name in the destination's parent and renamed when
 complete, so a crash or an error never leaves a half-written file or directory behind.
+
+What signatelec can rebuild (compiled kernels, fitted models) lives under :func:`cache_root`,
+``$SIGNATELEC_CACHE_DIR`` or ``~/.cache/signatelec``, one subdirectory each (:func:`cache_dir`).
 """
 
 from __future__ import annotations
@@ -10,6 +13,7 @@ import json
 import os
 import shutil
 import tempfile
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -23,14 +27,43 @@ from signatelec._version import __version__
 METADATA_KEY = b"signatelec"
 
 
+class OutputError(OSError):
+    """The output location cannot be written; the message names it."""
+
+
+class CacheWarning(UserWarning):
+    """The cache could not be used as it was; the one-line message says what was done instead."""
+
+
 def cache_root() -> Path:
-    """The user's signatelec cache: $SIGNATELEC_CACHE_DIR, else ~/.cache/signatelec."""
+    """``$SIGNATELEC_CACHE_DIR``, else ``~/.cache/signatelec`` (not created)."""
     root = os.environ.get("SIGNATELEC_CACHE_DIR")
     return Path(root) if root else Path.home() / ".cache" / "signatelec"
 
 
-class OutputError(OSError):
-    """The output location cannot be written; the message names it."""
+_FALLBACK: dict[Path, Path] = {}
+
+
+def cache_dir(name: str) -> Path:
+    """``cache_root() / name``, created and writable; when it cannot be (read-only, a file in
+    the way), a temporary directory used for the rest of the process, with one warning line."""
+    wanted = cache_root() / name
+    try:
+        wanted.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=wanted, prefix=".probe-"):
+            pass
+        return wanted
+    except OSError as exc:
+        if wanted not in _FALLBACK:
+            _FALLBACK[wanted] = Path(tempfile.mkdtemp(prefix=f"signatelec-{name}-"))
+            warnings.warn(
+                CacheWarning(
+                    f"cache directory {str(wanted)!r} cannot be written "
+                    f"({exc.strerror or exc}); using {_FALLBACK[wanted]} for this process"
+                ),
+                stacklevel=2,
+            )
+        return _FALLBACK[wanted]
 
 
 def table_with_metadata(df: pd.DataFrame, metadata: dict) -> pa.Table:

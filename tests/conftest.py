@@ -7,7 +7,7 @@ from functools import cache
 
 import pytest
 
-from signatelec.config.scene import Effects, Numerics, Operating, Procedure, Scene
+from signatelec.config.scene import Effects, Numerics, Operating, Outputs, Procedure, Scene
 
 CR_N = 29100.0  # NSK dynamic load rating of the 6208 (seed 2.2.2)
 
@@ -20,6 +20,7 @@ def make_scene(
     effects: dict | None = None,
     numerics: dict | None = None,
     procedure: dict | None = None,
+    outputs: dict | None = None,
 ) -> Scene:
     return Scene(
         operating=Operating(
@@ -27,6 +28,7 @@ def make_scene(
         ),
         procedure=replace(Procedure(), **(procedure or {})),
         effects=replace(Effects(), **(effects or {})),
+        outputs=replace(Outputs(), **(outputs or {})),
         numerics=replace(Numerics(duration_s=duration_s), **(numerics or {})),
     )
 

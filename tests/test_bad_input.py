@@ -57,7 +57,22 @@ SCENE_CASES = {
         '[operating]\nradial_load_n = "5820"\n', (), ("operating.radial_load_n", "must be a number")
     ),
     "integer_for_bool": Case(
-        "[effects]\ncage = 1\n", (), ("effects.cage", "must be true or false")
+        "[outputs]\nenergy = 1\n", (), ("outputs.energy", "must be true or false")
+    ),
+    "integer_for_model": Case(
+        "[effects]\ncage = 1\n",
+        (),
+        ("effects.cage", "must be one of balls, none (true: balls, false: none)"),
+    ),
+    "unknown_model": Case(
+        "[effects]\nfriction = 'viscous'\n",
+        (),
+        ("effects.friction", "must be one of coulomb, none (true: coulomb, false: none)"),
+    ),
+    "key_of_the_earlier_layout": Case(
+        "[effects]\nelectrical = false\n",
+        (),
+        ("effects.electrical", "unknown key", "[outputs] holds it now"),
     ),
     "array_for_number": Case(
         "[operating]\nomega_rad_s = [500.0, 600.0]\n", (), ("operating.omega_rad_s", "a number")

@@ -67,16 +67,39 @@ def test_dt_above_stability_limit_is_refused_with_the_limit(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_bench_writes_json_with_compile_apart(tmp_path):
+    # the seed's kernel serves both cases: one compile (or a load from the warm cache)
     out = tmp_path / "bench.json"
     out.write_text("{}")  # an earlier report is replaced
-    code = run_cli(["bench", "--duration", "0.0075", "--warm-cache", "--out", str(out)])
+    argv = ["bench", "--duration", "0.0075", "--warm-cache", "--out", str(out)]
+    code = run_cli([*argv, "--case", "seed", "--case", "electrical=false"])
     assert code == 0
     report = json.loads(out.read_text())
     rows = {r["case"]: r for r in report["rows"]}
-    seed = rows["seed (all effects)"]
+    assert set(rows) == {"seed", "electrical=false"}
+    seed = rows["seed"]
     assert seed["us_per_step"] > 0 and seed["compile_s"] >= 0
     assert seed["electrical_us_per_instant"] > 0
-    assert rows["no electrical"]["electrical_us_per_instant"] is None
+    assert rows["electrical=false"]["electrical_us_per_instant"] is None
+    assert rows["electrical=false"]["kernel"] == seed["kernel"]
+
+
+def test_bench_cases_cover_every_kernel_option():
+    """Each value of an option the kernel is compiled per has a case of its own."""
+    from signatelec.config.scene import OPTIONS
+    from signatelec.studies.bench import CASES
+
+    for option in OPTIONS:
+        if option.kernel:
+            for value in option.values:
+                assert value == option.default or {option.name: value} in CASES.values()
+    assert CASES["seed"] == {}
+
+
+def test_bench_refuses_an_unknown_case(tmp_path, capsys):
+    code = run_cli(["bench", "--case", "warp", "--out", str(tmp_path / "b.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--case 'warp'" in err[0] and "seed" in err[0]
+    assert not (tmp_path / "b.json").exists()
 
 
 def test_bench_refuses_a_directory_before_running(tmp_path, capsys):

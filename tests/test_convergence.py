@@ -29,12 +29,12 @@ def observed_orders(integrator: str) -> np.ndarray:
             clearance_m=-10e-6,
             duration_s=1.2e-3,
             effects={
-                "electrical": False,
                 "tangential": "spring",
-                "cage": False,
-                "gravity": False,
-                "damping": False,
+                "cage": "none",
+                "gravity": "none",
+                "damping": "none",
             },
+            outputs={"electrical": False},
             numerics={"dt_s": dt, "sample_rate_hz": 1e4 / 1.2, "integrator": integrator},
             procedure={"clearance_time_s": 0.1e-3, "load_time_s": 0.3e-3, "spin_up_time_s": 0.5e-3},
         )

@@ -168,7 +168,7 @@ BAD_SPECS = [
     (GOOD + "oversample = 0\n", "measurement.oversample = 0: must be an integer in [1, 64]"),
     (GOOD + "anti_alias_cutoff = 1.0\n", "measurement.anti_alias_cutoff = 1.0: must be in (0, 1)"),
     (GOOD + "[scene.numerics]\ndt_s = -1.0\n", "scene.numerics.dt_s = -1.0: must be > 0 s"),
-    (GOOD + "[scene.effects]\nelectrical = false\n", "scene.effects.electrical = False: the"),
+    (GOOD + "[scene.outputs]\nelectrical = false\n", "scene.outputs.electrical = False: the"),
     (GOOD + "[scene.numerics]\nduration_s = 1.0\n", "scene.numerics.duration_s = 1.0: set by"),
     (GOOD + "[extra]\na = 1\n", "extra = {'a': 1}: unknown key; allowed: dataset, design"),
     (

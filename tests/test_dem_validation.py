@@ -40,7 +40,7 @@ def test_steady_state_matches_quasistatic_hertz(run_scene, fraction, clearance_m
         radial_load_n=fraction * CR_N,
         clearance_m=clearance_m,
         duration_s=0.014,
-        effects={"electrical": False},
+        outputs={"electrical": False},
     )
     result = run_scene(scene)
     sig, angle, inner = steady_arrays(result)
@@ -84,7 +84,8 @@ def test_stribeck_max_load_at_zero_clearance(run_scene):
     scene = make_scene(
         radial_load_n=5820.0,
         duration_s=0.014,
-        effects={"electrical": False, "centrifugal": False, "gravity": False},
+        effects={"centrifugal": "compensated", "gravity": "none"},
+        outputs={"electrical": False},
     )
     sig, angle, inner = steady_arrays(run_scene(scene))
     z = scene.bearing.n_balls
@@ -97,7 +98,7 @@ def test_cage_speed_and_ball_spin_follow_rolling_kinematics(run_scene):
     """Pure rolling: cage speed omega R_inn / (R_inn + R_out), ball spin -omega_c r_p / R_b.
 
     Measured: the cage 0.012 % slower, the loaded balls' spin 4e-6 from rolling."""
-    scene = make_scene(duration_s=0.014, effects={"electrical": False})
+    scene = make_scene(duration_s=0.014, outputs={"electrical": False})
     result = run_scene(scene)
     t0 = scene.setup_time_s + SETTLE_S
     sig = result.signals[result.signals.time_s > t0]

@@ -168,7 +168,7 @@ def test_electrical_off_is_neither_computed_nor_written(monkeypatch, tmp_path):
         raise AssertionError("bearing_electrics called with the electrical effect off")
 
     monkeypatch.setattr(signatelec.physics.electrical, "bearing_electrics", refuse)
-    result = simulate(_short_scene(effects={"electrical": False}))  # not cached: the patch acts
+    result = simulate(_short_scene(outputs={"electrical": False}))  # not cached: the patch acts
     result.write(tmp_path / "run")
     for table, columns in ELECTRICAL_COLUMNS.items():
         in_memory = set(getattr(result, table).columns)

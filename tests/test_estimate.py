@@ -288,7 +288,7 @@ def test_damaged_default_model_rebuilt(small_model, tmp_path, monkeypatch, capsy
     runs)."""
     monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
     cached = persistence.default_model_path()
-    cached.parent.mkdir(parents=True)
+    cached.parent.mkdir(parents=True, exist_ok=True)
     _damaged(small_model, cached, "middle", 64)
     builds = []
 

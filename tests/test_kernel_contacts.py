@@ -12,9 +12,9 @@ import pytest
 from conftest import make_scene
 
 from signatelec.config.bearing import OUTER, contact_properties
-from signatelec.engines.dem import kernel as K
-from signatelec.engines.dem.build import KernelFlags, get_kernel
-from signatelec.engines.dem.run import KernelState, kernel_parameters
+from signatelec.engines.dem.build import get_kernel
+from signatelec.engines.dem.run import initial_state, kernel_parameters
+from signatelec.engines.dem.spec import KernelSpec
 from signatelec.physics import contact
 
 
@@ -23,35 +23,21 @@ def test_outer_contact_force_equals_contact_functions(law):
     scene = make_scene(
         radial_load_n=0.0,
         omega_rad_s=0.0,
-        effects={"contact_law": law, "gravity": False, "electrical": False},
+        effects={"contact_law": law, "gravity": "none"},
+        outputs={"electrical": False},
     )
-    kern = get_kernel(KernelFlags.from_scene(scene))
+    kern = get_kernel(KernelSpec.from_scene(scene))
     p = kernel_parameters(scene)
-    st = KernelState.initial(scene)
+    st = initial_state(scene)
     b = scene.bearing
     overlap, closing, slip = 20e-6, 0.05, 0.3
     # ball 0 at psi = 0 (bottom), pushed outwards by `overlap`, moving outwards and sliding
     st.pos[0] = (0.0, -(b.outer_race_radius_m - b.ball_radius_m + overlap))
     st.vel[0] = (slip, -closing)  # tangent t = perp(n) = (1, 0) at the bottom
     t_steady = 1.0  # after every set-up phase
-    kern.forces(
-        t_steady,
-        p,
-        st.pos,
-        st.vel,
-        st.spin,
-        st.acc,
-        st.spin_acc,
-        st.xi,
-        st.roots,
-        st.fcon,
-        st.sched,
-        st.energy,
-        st.status,
-        0,
-    )
+    kern.forces(t_steady, p, st, st.acc, 0)
     props = contact_properties(b)[OUTER]
-    coef = p[K.P_COEF + OUTER]
+    coef = p["normal_coefficient"][OUTER]
     if law == "hertz":
         fe = contact.hertz_normal_force(overlap, coef)
         cn = contact.critical_damping(
@@ -68,7 +54,7 @@ def test_outer_contact_force_equals_contact_functions(law):
     assert st.fcon[0, 1] == pytest.approx(fn, rel=1e-12)
     ct = contact.critical_damping(kt, props.reduced_mass_kg)
     ft = contact.coulomb_limit(
-        contact.tangential_force(kt, slip * p[K.P_DT], ct, slip), fn, b.friction_coefficient
+        contact.tangential_force(kt, slip * p["dt_s"], ct, slip), fn, b.friction_coefficient
     )
     assert st.fcon[0, 3] == pytest.approx(ft, rel=1e-9)
     assert np.isclose(st.fcon[0, 0], 0.0)  # no inner contact at zero load
@@ -87,10 +73,10 @@ def test_warm_started_roots_equal_cold_ones():
 
     Rounding here: a few ulp of the centre distance d, which the overlap reach - d amplifies by
     d / delta ~ 1e4, so forces agree to 1e-10 relative (they differ by ~3e-12)."""
-    scene = make_scene(effects={"electrical": False})
-    kern = get_kernel(KernelFlags.from_scene(scene))
+    scene = make_scene(outputs={"electrical": False})
+    kern = get_kernel(KernelSpec.from_scene(scene))
     p = kernel_parameters(scene)
-    warm = KernelState.initial(scene)
+    warm = initial_state(scene)
     b = scene.bearing
     rng = np.random.default_rng(7)
     # squeeze every contact: balls 3 um onto the outer race, the ring 10 um down onto the lower
@@ -109,29 +95,14 @@ def test_warm_started_roots_equal_cold_ones():
     warm.vel[:] = rng.normal(0.0, 1e-3, warm.vel.shape)
 
     def evaluate(state):
-        kern.forces(
-            1.0,
-            p,
-            state.pos,
-            state.vel,
-            state.spin,
-            state.acc,
-            state.spin_acc,
-            state.xi,
-            state.roots,
-            state.fcon,
-            state.sched,
-            state.energy,
-            state.status,
-            0,
-        )
+        kern.forces(1.0, p, state, state.acc, 0)
         return state.fcon.copy(), state.acc.copy()
 
     for step in range(4):
         # a smooth motion with steps of 1e-10 m to 1e-8 m, like dt = 1e-7 s at mm/s to cm/s
-        warm.pos += warm.vel * 1e-7 * (1.0 + step) + rng.normal(0.0, 1e-11, warm.pos.shape)
+        warm.pos[:] += warm.vel * 1e-7 * (1.0 + step) + rng.normal(0.0, 1e-11, warm.pos.shape)
         fcon_warm, acc_warm = evaluate(warm)
-        cold = KernelState.initial(scene)
+        cold = initial_state(scene)
         cold.pos[:], cold.vel[:] = warm.pos, warm.vel
         fcon_cold, acc_cold = evaluate(cold)
         touching = np.count_nonzero(fcon_cold, axis=0)

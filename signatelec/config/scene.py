@@ -8,10 +8,14 @@ TOML layout (every section and key optional; defaults are the seed's scene, sect
     [bearing]      # fields of signatelec.config.bearing.Bearing (radii, n_balls, materials, ...)
     [operating]    radial_load_n, clearance_m, omega_rad_s, initial_ball_angle_rad,
                    injected_current_a
-    [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp
-    [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal,
-                   clearance_phase, spin_up, electrical, energy
+    [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp, clearance_phase,
+                   spin_up
+    [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal
+    [outputs]      electrical, energy
     [numerics]     dt_s, duration_s, sample_rate_hz, integrator, fidelity, linear_stiffness_n_m
+
+Every choice (a model name or a switch) is declared once in :data:`OPTIONS` with its allowed
+values, default and cost; ``[effects]`` holds the physics, each option naming a model.
 """
 
 from __future__ import annotations
@@ -27,7 +31,6 @@ from typing import Any
 from signatelec.config.bearing import INNER, OUTER, Bearing, BearingError
 from signatelec.config.constraints import (
     BOOLEAN,
-    CHOICE,
     CLEARANCE_LIMIT_FRACTION,
     NUMBER,
     OVERLAP_LIMIT_FRACTION,
@@ -42,12 +45,152 @@ class SceneError(ValueError):
     """A scene value that is not allowed; the message is one line naming key, value, rule."""
 
 
-INTEGRATORS = ("verlet", "euler")
-TANGENTIAL_MODELS = ("seed", "spring")
-LOAD_RAMPS = ("smooth", "step")
-#: "dem": the DEM kernel; "quasistatic": the steady phase by signatelec.engines.quasistatic.tier (no
-#: dynamics: ~1 ms instead of ~0.2 s for the seed's scene). Presets: signatelec.engines.fidelity.
 FIDELITIES = ("dem", "quasistatic")
+
+
+@dataclass(frozen=True)
+class Option:
+    """One choice of a scene, declared once in :data:`OPTIONS`.
+
+    A physics option names a model; its ``off`` value is the null model that ``false`` selects
+    (``true`` selects ``default``). A switch takes true or false. ``kernel``: the DEM kernel is
+    compiled per value (:class:`signatelec.engines.dem.spec.KernelSpec` reads these options).
+    """
+
+    section: str
+    name: str
+    values: tuple
+    default: str | bool
+    description: str
+    kernel: bool = False
+    off: str | None = None
+
+    @property
+    def switch(self) -> bool:
+        return isinstance(self.default, bool)
+
+    def normalise(self, value: Any) -> Any:
+        """The model a boolean names (``true``: the default, ``false``: ``off``), else value."""
+        if self.off is not None and isinstance(value, bool):
+            return self.default if value else self.off
+        return value
+
+    def accepts(self, value: Any) -> bool:
+        if self.switch:
+            return isinstance(value, bool)
+        value = self.normalise(value)
+        return isinstance(value, str) and value in self.values
+
+    @property
+    def rule(self) -> str:
+        if self.switch:
+            return "must be true or false"
+        text = f"must be one of {', '.join(self.values)}"
+        if self.off is not None:
+            text += f" (true: {self.default}, false: {self.off})"
+        return text
+
+
+#: Every choice of a scene: what the TOML accepts, the defaults of the dataclasses below, the
+#: kernel's specialisation and the bench's cases all come from this table. Costs: shares of the
+#: seed scene's CPU time per step, ~0.45 us (``signatelec bench``).
+OPTIONS: tuple[Option, ...] = (
+    Option(
+        "effects", "cage", ("balls", "none"), "balls",
+        "balls: 13 polyamide cage balls between two frictionless boundaries (table 2), ~40 % of "
+        "the step, and they set the stability limit; none: balls touch (steel, frictionless)",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "friction", ("coulomb", "none"), "coulomb",
+        "coulomb: tangential forces with the Coulomb limit (eq. 4) on ball/raceway contacts, "
+        "~6 % of the step; none: frictionless (also when bearing.friction_coefficient = 0)",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "damping", ("critical", "none"), "critical",
+        "critical: critical viscous damping (eq. 5) on every contact, ~15 % of the step; none: "
+        "elastic contacts",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "contact_law", CONTACT_LAWS, "hertz",
+        "hertz (eqs 6-9); harris (eqs 10-11, Harris' coefficients, same kernel); linear (eq. 3, "
+        "Hertz secant stiffness at Stribeck's load, ~1/3 cheaper: no roots)",
+        kernel=True,
+    ),
+    Option(
+        "effects", "tangential", ("seed", "spring"), "seed",
+        "seed: delta_t = v_t dt (eq. 3, first order in dt); spring: accumulated delta_t "
+        "(second order, same cost)",
+        kernel=True,
+    ),
+    Option(
+        "effects", "gravity", ("standard", "none"), "standard",
+        "standard: weight of every body along -y (9.80665 m/s^2), no cost; none: weightless",
+        kernel=True, off="none",
+    ),
+    Option(
+        "effects", "centrifugal", ("inertial", "compensated"), "inertial",
+        "inertial: the inertial-frame DEM carries it, no cost; compensated: the centripetal "
+        "force m v_t^2 / r on each ball cancels it, to compare with centrifugal-free theory",
+        kernel=True, off="compensated",
+    ),
+    Option(
+        "procedure", "clearance_phase", (True, False), True,
+        "move the outer race to R_out + clearance over clearance_time_s (eq. 14); false: at once",
+    ),
+    Option(
+        "procedure", "spin_up", (True, False), True,
+        "sinusoidal spin-up of the inner ring over spin_up_time_s; false: omega as a step",
+    ),
+    Option(
+        "procedure", "load_ramp", ("smooth", "step"), "smooth",
+        "smooth: F_r rises along (1 - cos)/2 over load_time_s; step: F_r applied at once",
+    ),
+    Option(
+        "outputs", "electrical", (True, False), True,
+        "contact ellipses, eq. 16 and the Kirchhoff network at every recorded instant "
+        "(~3 us per instant, ~1 % of a seed run at 20 kHz)",
+    ),
+    Option(
+        "outputs", "energy", (True, False), False,
+        "energy balance (work in, dissipation, kinetic, elastic) per recorded instant, "
+        "~20 % of the step",
+        kernel=True,
+    ),
+    Option(
+        "numerics", "integrator", ("verlet", "euler"), "verlet",
+        "verlet: velocity Verlet, 2nd order; euler: symplectic Euler, 1st order, same cost per "
+        "step and a stability limit about twice Verlet's with contact damping",
+        kernel=True,
+    ),
+    Option(
+        "numerics", "fidelity", FIDELITIES, "dem",
+        "dem: the DEM kernel; quasistatic: the steady phase by the quasi-static tier (no "
+        "dynamics, ~1 ms instead of ~0.2 s for the seed's scene; presets: engines.fidelity)",
+    ),
+)  # fmt: skip
+OPTION_TABLE: dict[tuple[str, str], Option] = {(o.section, o.name): o for o in OPTIONS}
+#: Keys the earlier layout had under [effects], and the section that holds them now.
+_MOVED = {
+    "clearance_phase": "procedure",
+    "spin_up": "procedure",
+    "electrical": "outputs",
+    "energy": "outputs",
+}
+
+
+def _default(section: str, name: str) -> Any:
+    return OPTION_TABLE[(section, name)].default
+
+
+def _normalise(obj: Any, section: str) -> None:
+    """Map the booleans of physics options to the model they name (frozen dataclasses)."""
+    for f in fields(obj):
+        option = OPTION_TABLE.get((section, f.name))
+        if option is not None:
+            object.__setattr__(obj, f.name, option.normalise(getattr(obj, f.name)))
 
 
 @dataclass(frozen=True)
@@ -68,46 +211,40 @@ class Operating:
 
 @dataclass(frozen=True)
 class Procedure:
-    """Durations of the seed's set-up phases (2.2.1, 2.2.2): clearance, load, spin-up."""
+    """The seed's set-up phases (2.2.1, 2.2.2): clearance, load, spin-up; switches in OPTIONS."""
 
     clearance_time_s: float = 0.5e-3
     load_time_s: float = 1.5e-3
     spin_up_time_s: float = 5.0e-3
-    #: "smooth": F_r rises along (1 - cos)/2 over load_time_s; "step": F_r applied at once.
-    load_ramp: str = "smooth"
+    load_ramp: str = _default("procedure", "load_ramp")
+    clearance_phase: bool = _default("procedure", "clearance_phase")
+    spin_up: bool = _default("procedure", "spin_up")
 
 
 @dataclass(frozen=True)
 class Effects:
-    """Which physics a scene simulates. An effect that is off is not compiled into the kernel.
+    """The physics a scene simulates: each option names a model (see OPTIONS); a model that is
+    not chosen is not compiled into the kernel. ``true``/``false`` name the default model and
+    the null model of an on/off option (``cage = false`` is ``cage = "none"``)."""
 
-    - ``cage``: the 13 polyamide cage balls between two frictionless boundaries (off: balls may
-      touch each other, steel on steel, frictionless).
-    - ``friction``: Coulomb friction (eq. 4) and tangential forces on ball/raceway contacts.
-    - ``damping``: critical viscous damping (eq. 5) on every contact.
-    - ``contact_law``: "hertz" (eqs 6-9), "harris" (eqs 10-11) or "linear" (eq. 3).
-    - ``tangential``: "seed" (delta_t = v_t dt, eq. 3) or "spring" (accumulated delta_t).
-    - ``gravity``: weight of balls, cage balls and inner ring along -y.
-    - ``centrifugal``: the inertial-frame DEM carries it by itself; off adds the centripetal force
-      m v_t^2 / r to each ball so results compare with centrifugal-free theory.
-    - ``clearance_phase``: move the outer race to R_out + clearance gradually (eq. 14); off: at
-      once.
-    - ``spin_up``: sinusoidal spin-up of the inner ring; off: omega applied as a step.
-    - ``electrical``: contact ellipses, eq. 16 and the Kirchhoff network, per recorded instant.
-    - ``energy``: accumulate an energy balance (work in, dissipation, kinetic, elastic).
-    """
+    cage: str = _default("effects", "cage")
+    friction: str = _default("effects", "friction")
+    damping: str = _default("effects", "damping")
+    contact_law: str = _default("effects", "contact_law")
+    tangential: str = _default("effects", "tangential")
+    gravity: str = _default("effects", "gravity")
+    centrifugal: str = _default("effects", "centrifugal")
 
-    cage: bool = True
-    friction: bool = True
-    damping: bool = True
-    contact_law: str = "hertz"
-    tangential: str = "seed"
-    gravity: bool = True
-    centrifugal: bool = True
-    clearance_phase: bool = True
-    spin_up: bool = True
-    electrical: bool = True
-    energy: bool = False
+    def __post_init__(self) -> None:
+        _normalise(self, "effects")
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What a run computes besides the motion (see OPTIONS)."""
+
+    electrical: bool = _default("outputs", "electrical")
+    energy: bool = _default("outputs", "energy")
 
 
 @dataclass(frozen=True)
@@ -115,19 +252,20 @@ class Numerics:
     dt_s: float = 1e-7
     duration_s: float = 0.03
     sample_rate_hz: float = 20000.0
-    integrator: str = "verlet"
-    fidelity: str = "dem"
+    integrator: str = _default("numerics", "integrator")
+    fidelity: str = _default("numerics", "fidelity")
     #: Linear-law stiffness of the ball/outer-raceway contact, N/m; 0 means the Hertz secant
     #: stiffness at the Stribeck load 4.37 F_r / Z (see contact.law_coefficients).
     linear_stiffness_n_m: float = 0.0
 
 
-_CHOICES = {
-    ("effects", "contact_law"): CONTACT_LAWS,
-    ("effects", "tangential"): TANGENTIAL_MODELS,
-    ("procedure", "load_ramp"): LOAD_RAMPS,
-    ("numerics", "integrator"): INTEGRATORS,
-    ("numerics", "fidelity"): FIDELITIES,
+#: The sections of a scene after [bearing], in TOML order.
+SECTIONS: dict[str, type] = {
+    "operating": Operating,
+    "procedure": Procedure,
+    "effects": Effects,
+    "outputs": Outputs,
+    "numerics": Numerics,
 }
 
 
@@ -137,6 +275,7 @@ class Scene:
     operating: Operating = field(default_factory=Operating)
     procedure: Procedure = field(default_factory=Procedure)
     effects: Effects = field(default_factory=Effects)
+    outputs: Outputs = field(default_factory=Outputs)
     numerics: Numerics = field(default_factory=Numerics)
 
     def __post_init__(self) -> None:
@@ -160,12 +299,8 @@ class Scene:
 
     # --- (de)serialisation ----------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "bearing": self.bearing.to_dict(),
-            "operating": asdict(self.operating),
-            "procedure": asdict(self.procedure),
-            "effects": asdict(self.effects),
-            "numerics": asdict(self.numerics),
+        return {"bearing": self.bearing.to_dict()} | {
+            name: asdict(getattr(self, name)) for name in SECTIONS
         }
 
     def to_json(self) -> str:
@@ -173,12 +308,7 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Scene:
-        sections = {
-            "operating": Operating,
-            "procedure": Procedure,
-            "effects": Effects,
-            "numerics": Numerics,
-        }
+        sections = SECTIONS
         check = Checker(SceneError)
         if not isinstance(data, dict):
             check.fail("scene", data, "must be a table of sections")
@@ -202,7 +332,7 @@ class Scene:
 
     def with_overrides(self, **changes: Any) -> Scene:
         """Copy with flat overrides such as ``radial_load_n=...`` or ``dt_s=...`` (None skipped)."""
-        parts = {"operating": {}, "procedure": {}, "effects": {}, "numerics": {}}
+        parts: dict[str, dict] = {name: {} for name in SECTIONS}
         for key, value in changes.items():
             if value is None:
                 continue
@@ -234,8 +364,6 @@ def read_toml(path: str | Path, label: str, noun: str, error: type[ValueError]) 
 def type_row(section: str, f) -> Constraint | None:
     """The type rule of a scene key, from its dataclass field: one of its choices, true or
     false, or a number (the ranges are rows of :data:`signatelec.config.constraints.SCENE`)."""
-    if (section, f.name) in _CHOICES:
-        return Constraint(section, f.name, CHOICE, choices=_CHOICES[(section, f.name)])
     if isinstance(f.default, bool):
         return Constraint(section, f.name, BOOLEAN)
     if isinstance(f.default, float):
@@ -244,15 +372,28 @@ def type_row(section: str, f) -> Constraint | None:
 
 
 def _section(name: str, cls: type, data: Any) -> Any:
-    """A scene section from its TOML table: known keys, each of its type, numbers as floats (a
-    number is checked before it is converted)."""
+    """A scene section from its TOML table: known keys (a key that moved names its new
+    section), options among their values, numbers checked before they are converted."""
     check = Checker(SceneError)
-    check.keys(name, check.table(name, data), [f.name for f in fields(cls)])
-    rows = {f.name: type_row(name, f) for f in fields(cls)}
-    converted = {
-        key: value if rows[key] is None else check.check(rows[key], value)
-        for key, value in data.items()
-    }
+    table = check.table(name, data)
+    known = [f.name for f in fields(cls)]
+    for key, value in table.items():
+        if key not in known:
+            moved = f"; [{_MOVED[key]}] holds it now" if key in _MOVED else ""
+            check.fail(f"{name}.{key}", value, f"unknown key; allowed: {', '.join(known)}{moved}")
+    converted = {}
+    for f in fields(cls):
+        if f.name not in table:
+            continue
+        value = table[f.name]
+        option = OPTION_TABLE.get((name, f.name))
+        if option is not None:
+            if not option.accepts(value):
+                check.fail(f"{name}.{f.name}", value, option.rule)
+            converted[f.name] = value
+        else:
+            row = type_row(name, f)
+            converted[f.name] = value if row is None else check.check(row, value)
     return cls(**converted)
 
 
@@ -308,15 +449,22 @@ def scene_limits(scene: Scene) -> dict[str, Any]:
 
 
 def validate_scene(scene: Scene) -> None:
-    """Raise :class:`SceneError` on the first value that is not allowed: every key's type, then
-    the rows of :data:`signatelec.config.constraints.SCENE` in order."""
+    """Raise :class:`SceneError` on the first value that is not allowed: every option among its
+    values and every number's type, then the rows of :data:`signatelec.config.constraints.SCENE`
+    in order."""
     check = Checker(SceneError, limits=scene_limits(scene))
-    for section in ("operating", "procedure", "effects", "numerics"):
+    for section in SECTIONS:
         obj = getattr(scene, section)
         for f in fields(obj):
+            value = getattr(obj, f.name)
+            option = OPTION_TABLE.get((section, f.name))
+            if option is not None:
+                if not option.accepts(value):
+                    check.fail(f"{section}.{f.name}", value, option.rule)
+                continue
             row = type_row(section, f)
             if row is not None:
-                check.check(row, getattr(obj, f.name))
+                check.check(row, value)
     for row in SCENE:
         check.check(row, getattr(getattr(scene, row.section), row.key))
 

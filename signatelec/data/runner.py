@@ -42,8 +42,9 @@ def warm_up(ctx: TraceContext, *, imports: bool = True) -> float:
     with ``imports``, also import what a trace imports on first use (scipy.signal, the
     quasi-static solver of a target epsilon) so no trace pays for it.
 
-    The effect set (hence the kernel) depends on the effects, the bearing's friction and the
-    fidelity's integrator, which every trace of a spec shares. Returns the seconds spent.
+    The kernel (signatelec.engines.dem.spec.KernelSpec) depends on the effects, the energy
+    output, the bearing's friction and the fidelity's integrator, which every trace of a spec
+    shares. Returns the seconds spent.
     """
     from signatelec.engines.fidelity import apply_fidelity
     from signatelec.engines.simulate import simulate

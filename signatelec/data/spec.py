@@ -190,7 +190,7 @@ _SCENE_RESERVED = {
     ("numerics", "duration_s"): "set by [dataset] duration_s and settle_s",
     ("numerics", "sample_rate_hz"): "set by [measurement] sample_rate_hz and oversample",
     ("numerics", "fidelity"): "set by [dataset] fidelity",
-    ("effects", "electrical"): "the dataset needs the resistance; the electrical effect stays on",
+    ("outputs", "electrical"): "the dataset needs the resistance; the electrical output stays on",
 }
 _NUMBER = row_of(FACTOR, "factor", "number")
 _EPSILON = row_of(FACTOR, "factor", "epsilon")

@@ -38,7 +38,7 @@ import re
 from dataclasses import dataclass, replace
 
 from signatelec.config.bearing import MATERIALS, Material
-from signatelec.config.scene import FIDELITIES, Scene, SceneError
+from signatelec.config.scene import FIDELITIES, OPTIONS, Scene, SceneError
 
 _SCALED = re.compile(r"^(?P<base>.*) \(mass x(?P<factor>[0-9.eE+-]+)\)$")
 
@@ -75,11 +75,8 @@ PRESETS: dict[str, Preset] = {
     "reference": Preset(
         "DEM, dt = 1e-8 s, every seed effect: the accuracy-cost study's reference",
         dt_s=1e-8,
-        effects=tuple(
-            (name, True)
-            for name in ("cage", "friction", "damping", "gravity", "centrifugal", "spin_up")
-        )
-        + (("contact_law", "hertz"), ("tangential", "seed")),
+        effects=tuple((o.name, o.default) for o in OPTIONS if o.section == "effects")
+        + (("spin_up", True),),
     ),
 }
 

@@ -26,7 +26,7 @@ def chain_force_n(scene) -> float:
     mu times Stribeck's load.
     """
     b = scene.bearing
-    t_spin = scene.procedure.spin_up_time_s if scene.effects.spin_up else 0.0
+    t_spin = scene.procedure.spin_up_time_s if scene.procedure.spin_up else 0.0
     if t_spin <= 0.0:
         return max(b.friction_coefficient, 0.05) * stribeck_load_n(scene)
     omega_c = b.cage_speed_rad_s(scene.operating.omega_rad_s)

@@ -27,10 +27,10 @@ MIN_SHIFT_M = 1e-9
 
 def phase_times(scene: Scene) -> tuple[float, float, float]:
     """Ends of the clearance, load and spin-up phases, s (a phase that is off has length 0)."""
-    pr, e = scene.procedure, scene.effects
-    t1 = pr.clearance_time_s if e.clearance_phase else 0.0
+    pr = scene.procedure
+    t1 = pr.clearance_time_s if pr.clearance_phase else 0.0
     t2 = t1 + (pr.load_time_s if pr.load_ramp == "smooth" else 0.0)
-    t3 = t2 + (pr.spin_up_time_s if e.spin_up else 0.0)
+    t3 = t2 + (pr.spin_up_time_s if pr.spin_up else 0.0)
     if pr.load_ramp == "step":
         # the load still waits for its phase, then comes at once
         t2 = t1

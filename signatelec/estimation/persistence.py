@@ -16,7 +16,7 @@ The checksum catches damage (a disk, a copy, an edit), not a forger: a pickle ru
 loaded, so load only model files of a source you trust.
 
 :func:`default_model` builds the default model (:func:`~signatelec.estimation.training.
-train_default_model`) on first use and caches it under :func:`signatelec.io.cache_root`; a
+train_default_model`) on first use and caches it under :func:`signatelec.io.cache_dir`; a
 damaged cache entry is rebuilt with one warning line.
 """
 
@@ -35,7 +35,7 @@ from signatelec._version import __version__
 from signatelec.estimation.features import FEATURE_SET_VERSION
 from signatelec.estimation.models import LoadStateModel
 from signatelec.estimation.training import DEFAULT_TABLE, train_default_model
-from signatelec.io import cache_root, write_bytes_atomic
+from signatelec.io import cache_dir, write_bytes_atomic
 
 MODEL_FORMAT = "signatelec-load-state-model"
 #: 2: the header carries ``body_bytes`` and ``sha256``.
@@ -173,7 +173,7 @@ def default_model_path(table: Path = DEFAULT_TABLE) -> Path:
         f"load_state-{__version__}-fs{FEATURE_SET_VERSION}-m{MODEL_FORMAT_VERSION}-"
         f"sklearn{sklearn.__version__}-{digest}.model"
     )
-    return cache_root() / "models" / name
+    return cache_dir("models") / name
 
 
 def default_model(log: Callable[[str], None] | None = None) -> LoadStateModel:

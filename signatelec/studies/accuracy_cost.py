@@ -126,7 +126,7 @@ SETTINGS: tuple[Setting, ...] = (
     dem("dem linear law dt=1e-7", dt_s=1e-7, effects=_law("linear")),
     dem("dem linear law dt=0.95 limit", dt_limit_fraction=0.95, effects=_law("linear")),
     dem("dem harris law dt=1e-7", dt_s=1e-7, effects=_law("harris")),
-    dem("dem hertz no gravity dt=1e-7", dt_s=1e-7, effects=(("gravity", False),)),
+    dem("dem hertz no gravity dt=1e-7", dt_s=1e-7, effects=(("gravity", "none"),)),
     dem("dem cage mass x10 dt=0.9 limit", dt_limit_fraction=0.9, cage_mass_scale=10.0),
     dem(
         "dem cage mass x10 euler dt=0.9 limit",
@@ -200,12 +200,12 @@ _WARM: set = set()
 
 def _warm_up(scene: Scene) -> None:
     """Load (or compile) the scene's kernel, or the quasi-static tier, before it is timed."""
-    from signatelec.engines.dem.build import KernelFlags
+    from signatelec.engines.dem.spec import KernelSpec
     from signatelec.engines.dem.stability import stability_limit
     from signatelec.engines.simulate import simulate
 
     quasistatic = scene.numerics.fidelity == "quasistatic"
-    key = "quasistatic" if quasistatic else KernelFlags.from_scene(scene)
+    key = "quasistatic" if quasistatic else KernelSpec.from_scene(scene)
     if key in _WARM:
         return
     if quasistatic:
@@ -259,7 +259,7 @@ def _setting_columns(setting: Setting, scene: Scene) -> dict:
         "tier": nu.fidelity,
         "integrator": nu.integrator if dem else "",
         "contact_law": e.contact_law,
-        "gravity": e.gravity,
+        "gravity": e.gravity == "standard",
         "cage_mass_scale": round(scale, 6),
         "dt_s": nu.dt_s if dem else math.nan,
         "stability_limit_s": limit,

@@ -1,8 +1,11 @@
-"""``signatelec bench``: what each effect costs, in microseconds per time step.
+"""``signatelec bench``: what each option costs, in microseconds per time step.
 
-Each case is the seed scene with some effects switched off (or swapped); every case compiles its
-own specialised kernel, whose compile time is reported apart from the run time. Run with a fresh
-kernel cache (the default) so the compile time is a real compile, not a cache load.
+The cases derive from the scene options (:data:`signatelec.config.scene.OPTIONS`): the seed
+scene, then each option that changes the kernel or the outputs set to each of its other values
+(``cage=none``, ``contact_law=linear``, ``energy=true``, ``integrator=euler``, ...), then
+``minimal``: every physics option at its null model, no electrical output. Every kernel is
+compiled apart, its compile time reported apart from the run time. Run with a fresh kernel cache
+(the default) so the compile time is a real compile, not a cache load.
 """
 
 from __future__ import annotations
@@ -10,53 +13,58 @@ from __future__ import annotations
 import os
 import platform
 import tempfile
-from dataclasses import replace
 
 from signatelec._version import __version__
-from signatelec.config.scene import Effects, Numerics, Scene
+from signatelec.config.scene import OPTIONS, Scene, SceneError
 
-#: (name, what changes from the seed scene)
-CASES: tuple[tuple[str, dict], ...] = (
-    ("seed (all effects)", {}),
-    ("no electrical", {"electrical": False}),
-    ("no cage", {"cage": False}),
-    ("no friction", {"friction": False}),
-    ("no damping", {"damping": False}),
-    ("no gravity", {"gravity": False}),
-    ("centrifugal compensated", {"centrifugal": False}),
-    ("linear law", {"contact_law": "linear"}),
-    ("harris law", {"contact_law": "harris"}),
-    ("spring tangential", {"tangential": "spring"}),
-    ("energy balance on", {"energy": True}),
-    (
-        "minimal (no cage, friction, gravity, electrical)",
-        {"cage": False, "friction": False, "gravity": False, "electrical": False},
-    ),
-    ("symplectic Euler", {"integrator": "euler"}),
-)
+
+def _cases() -> dict[str, dict]:
+    """The seed scene; every option that changes the kernel or the outputs (config.scene.OPTIONS)
+    at each of its other values, one at a time; then every physics option at its null model."""
+    cases: dict[str, dict] = {"seed": {}}
+    for option in OPTIONS:
+        if option.kernel or option.section == "outputs":
+            for value in option.values:
+                if value != option.default:
+                    name = f"{option.name}={str(value).lower()}"
+                    cases[name] = {option.name: value}
+    cases["minimal"] = {o.name: o.off for o in OPTIONS if o.off == "none"}
+    cases["minimal"]["electrical"] = False
+    return cases
+
+
+#: name -> what changes from the seed scene (flat Scene.with_overrides keys)
+CASES: dict[str, dict] = _cases()
 
 
 def bench_scene(changes: dict, duration_s: float) -> Scene:
-    base = Scene()
-    effect_changes = {k: v for k, v in changes.items() if k in Effects.__dataclass_fields__}
-    numeric_changes = {k: v for k, v in changes.items() if k in Numerics.__dataclass_fields__}
-    return replace(
-        base,
-        effects=replace(base.effects, **effect_changes),
-        numerics=replace(base.numerics, duration_s=duration_s, **numeric_changes),
-    )
+    return Scene().with_overrides(duration_s=duration_s, **changes)
 
 
-def run_bench(duration_s: float = 0.03, fresh_cache: bool = True, repeat: int = 7) -> dict:
-    """Run every case ``repeat`` times: compile time from the first run, the step cost from the
-    fastest (the others carry cold caches or another process's load; on a shared 2-core host the
-    same kernel measured 0.47-0.75 us/step from one run to the next)."""
+def select_cases(names: tuple[str, ...] = ()) -> dict[str, dict]:
+    """The cases named (all when none is); SceneError names an unknown one."""
+    for name in names:
+        if name not in CASES:
+            raise SceneError(f"--case {name!r}: unknown; allowed: {', '.join(CASES)}")
+    return {n: c for n, c in CASES.items() if not names or n in names}
+
+
+def run_bench(
+    duration_s: float = 0.03,
+    fresh_cache: bool = True,
+    repeat: int = 7,
+    cases: tuple[str, ...] = (),
+) -> dict:
+    """Run each case (all by default) ``repeat`` times: compile time from the first run, the step
+    cost from the fastest (the others carry cold caches or another process's load; on a shared
+    2-core host the same kernel measured 0.47-0.75 us/step from one run to the next)."""
     from signatelec.engines.simulate import simulate
 
+    selected = select_cases(cases)
     if fresh_cache:
         os.environ["SIGNATELEC_CACHE_DIR"] = tempfile.mkdtemp(prefix="signatelec-bench-")
     rows = []
-    for name, changes in CASES:
+    for name, changes in selected.items():
         scene = bench_scene(changes, duration_s)
         runs = [simulate(scene).timings for _ in range(max(1, repeat))]
         t = dict(min(runs, key=lambda r: r["cpu_us_per_step"]))
@@ -76,9 +84,10 @@ def run_bench(duration_s: float = 0.03, fresh_cache: bool = True, repeat: int = 
                 "repeat": len(runs),
             }
         )
-    seed = rows[0]["us_per_step"]
+    # CPU time: on a shared host the wall time also counts the other processes
+    seed = rows[0]["cpu_us_per_step"] if "seed" in selected else None
     for row in rows:
-        row["relative_cost"] = row["us_per_step"] / seed
+        row["relative_cost"] = row["cpu_us_per_step"] / seed if seed else None
     return {
         "signatelec": __version__,
         "machine": {
@@ -93,15 +102,16 @@ def run_bench(duration_s: float = 0.03, fresh_cache: bool = True, repeat: int = 
 
 def format_table(report: dict) -> str:
     head = (
-        f"{'case':50s} {'us/step':>8s} {'cpu us':>7s} {'rel':>5s} {'run s':>7s} "
+        f"{'case':24s} {'us/step':>8s} {'cpu us':>7s} {'rel':>5s} {'run s':>7s} "
         f"{'compile s':>9s} {'elec us/inst':>12s}"
     )
     lines = [head, "-" * len(head)]
     for r in report["rows"]:
         el = r["electrical_us_per_instant"]
         elec = "-" if el is None else f"{el:.1f}"
+        rel = "-" if r["relative_cost"] is None else f"{r['relative_cost']:.2f}"
         lines.append(
-            f"{r['case']:50s} {r['us_per_step']:8.3f} {r['cpu_us_per_step']:7.3f} "
-            f"{r['relative_cost']:5.2f} {r['run_s']:7.3f} {r['compile_s']:9.2f} {elec:>12s}"
+            f"{r['case']:24s} {r['us_per_step']:8.3f} {r['cpu_us_per_step']:7.3f} "
+            f"{rel:>5s} {r['run_s']:7.3f} {r['compile_s']:9.2f} {elec:>12s}"
         )
     return "\n".join(lines)

@@ -1,95 +1,246 @@
-"""Kernels specialised per effect set.
+"""Kernels specialised per :class:`~signatelec.engines.dem.spec.KernelSpec`, cached on disk
+without ever serving stale physics.
 
-:func:`get_kernel` copies ``kernel.py`` with its flag line set for one effect set into
-the cache directory (``$SIGNATELEC_CACHE_DIR``, else ``~/.cache/signatelec``) and imports it;
-numba's ``cache=True`` then keeps the machine code on disk, so each effect set compiles once per
-machine and every later process (CLI runs, dataset workers) only loads it.
+:func:`get_kernel` writes ``kernel.py`` with its spec block set from the spec
+(:func:`specialise`) into ``<cache>/kernels`` (``signatelec.io.cache_dir``) under a name made of
+:func:`cache_key`, and imports it; numba's ``cache=True`` keeps the machine code next to it in
+``__pycache__``, so each kernel compiles once per machine and every later process (CLI runs,
+dataset workers) only loads it.
+
+numba checks a cached function against the timestamp of its own file only, not against the
+functions it calls from other files. The key therefore hashes the specialised source, the text of
+every signatelec module the kernel imports, transitively (:func:`kernel_sources`: found from the
+import statements, so a new import joins the key by itself), and the numba, numpy, Python and
+signatelec versions (:func:`versions`). Editing a contact law in physics/contact.py, or
+installing another version, gives another file name and a fresh compile.
+
+A damaged cache is rebuilt, not fatal: a generated file that differs from what it should hold,
+or numba index/data files it cannot read, give one warning line and a fresh compile; an
+unusable cache directory gives one warning line and a temporary one (``signatelec.io``).
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import importlib.util
 import os
+import platform
 import re
 import sys
-from dataclasses import dataclass
-from functools import cache
+import traceback
+import warnings
 from pathlib import Path
 from types import ModuleType
 
+import numba
+import numpy as np
+
+import signatelec._version
+from signatelec.engines.dem.spec import KernelSpec
+from signatelec.io import CacheWarning, cache_dir
+
 TEMPLATE = Path(__file__).with_name("kernel.py")
-FLAG_NAMES = (
-    "CAGE",
-    "FRICTION",
-    "DAMPING",
-    "LINEAR",
-    "SPRING",
-    "GRAVITY",
-    "CENTRIFUGAL",
-    "ENERGY",
-    "VERLET",
-)
-_FLAG_LINE = re.compile(r"^CAGE, FRICTION, .*$", re.MULTILINE)
+TEMPLATE_MODULE = "signatelec.engines.dem.kernel"
+#: The functions called from Python, compiled (or loaded) before a run by :func:`prepare`.
+ENTRY_POINTS = ("start", "run", "forces")
+_BLOCK = re.compile(r"^# --- kernel spec:[^\n]*\n(.*?)^# --- end of kernel spec", re.M | re.S)
+_LOADED: dict[tuple[KernelSpec, Path], ModuleType] = {}
 
 
-@dataclass(frozen=True)
-class KernelFlags:
-    """Compile-time switches of one kernel; see the module docstring of kernel."""
-
-    cage: bool = True
-    friction: bool = True
-    damping: bool = True
-    linear: bool = False
-    spring: bool = False
-    gravity: bool = True
-    centrifugal: bool = True
-    energy: bool = False
-    verlet: bool = True
-
-    @classmethod
-    def from_scene(cls, scene) -> KernelFlags:
-        e = scene.effects
-        return cls(
-            cage=e.cage,
-            friction=e.friction and scene.bearing.friction_coefficient > 0.0,
-            damping=e.damping,
-            linear=e.contact_law == "linear",
-            spring=e.tangential == "spring",
-            gravity=e.gravity,
-            centrifugal=e.centrifugal,
-            energy=e.energy,
-            verlet=scene.numerics.integrator == "verlet",
-        )
-
-    @property
-    def key(self) -> str:
-        return "".join("1" if getattr(self, n.lower()) else "0" for n in FLAG_NAMES)
+def _assignments(block: str) -> dict[str, object]:
+    """``NAME = literal`` lines of a spec block, by name."""
+    out = {}
+    for node in ast.parse(block).body:
+        if not (isinstance(node, ast.Assign) and len(node.targets) == 1):
+            raise RuntimeError(f"kernel spec block: {ast.unparse(node)!r} is not NAME = value")
+        out[node.targets[0].id] = ast.literal_eval(node.value)
+    return out
 
 
-def cache_dir() -> Path:
-    root = os.environ.get("SIGNATELEC_CACHE_DIR")
-    base = Path(root) if root else Path.home() / ".cache" / "signatelec"
-    return base / "kernels"
+def specialise(source: str, spec: KernelSpec) -> str:
+    """``source`` (the text of kernel.py) with its spec block assigning ``spec.flags()``.
+
+    Raises RuntimeError when the source has not exactly one spec block, or when the block names
+    a flag no kernel option defines (the kernel would read a constant no spec sets).
+    """
+    blocks = list(_BLOCK.finditer(source))
+    if len(blocks) != 1:
+        raise RuntimeError(f"kernel.py: {len(blocks)} kernel spec blocks; expected exactly one")
+    block = blocks[0]
+    flags = spec.flags()
+    unknown = sorted(set(_assignments(block.group(1))) - set(flags))
+    if unknown:
+        raise RuntimeError(f"kernel.py reads {', '.join(unknown)}: no kernel option defines it")
+    lines = "".join(f"{name} = {value!r}\n" for name, value in flags.items())
+    out = source[: block.start(1)] + lines + source[block.end(1) :]
+    written = _assignments(_BLOCK.search(out).group(1))
+    if written != flags:
+        raise RuntimeError(f"kernel spec block: wrote {written}, meant {flags}")
+    return out
 
 
-@cache
-def get_kernel(flags: KernelFlags) -> ModuleType:
-    """The kernel module for ``flags`` (compiled lazily by numba on first call)."""
-    source = TEMPLATE.read_text(encoding="utf-8")
-    values = ", ".join(str(getattr(flags, n.lower())) for n in FLAG_NAMES)
-    specialised = _FLAG_LINE.sub(f"{', '.join(FLAG_NAMES)} = ({values})  # noqa: E501", source)
-    digest = hashlib.sha1(specialised.encode()).hexdigest()[:10]
-    name = f"signatelec_kernel_{flags.key}_{digest}"
-    directory = cache_dir()
-    directory.mkdir(parents=True, exist_ok=True)
+def _imported_modules(name: str, tree: ast.Module) -> set[str]:
+    """signatelec modules that module ``name`` imports at its top level."""
+    found = set()
+    for node in tree.body:
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            package = name.rpartition(".")[0]
+            base = importlib.util.resolve_name("." * node.level + (node.module or ""), package)
+            if not base.startswith("signatelec"):
+                continue
+            package_spec = importlib.util.find_spec(base)
+            for alias in node.names:
+                submodule = f"{base}.{alias.name}"
+                is_module = package_spec.submodule_search_locations is not None and (
+                    importlib.util.find_spec(submodule) is not None
+                )
+                found.add(submodule if is_module else base)
+    return {m for m in found if m == "signatelec" or m.startswith("signatelec.")}
+
+
+def kernel_sources() -> dict[str, str]:
+    """Source text of kernel.py and of every signatelec module it imports (at top level,
+    transitively), by module name: all the code, constants and types the kernel compiles."""
+    sources: dict[str, str] = {}
+    pending = [TEMPLATE_MODULE]
+    while pending:
+        name = pending.pop()
+        if name in sources:
+            continue
+        text = Path(importlib.util.find_spec(name).origin).read_text(encoding="utf-8")
+        sources[name] = text
+        pending.extend(_imported_modules(name, ast.parse(text)) - set(sources))
+    return sources
+
+
+def versions() -> dict[str, str]:
+    """What else the compiled code depends on."""
+    return {
+        "signatelec": signatelec._version.__version__,
+        "numba": numba.__version__,
+        "numpy": np.__version__,
+        "python": platform.python_version(),
+        "implementation": sys.implementation.name,
+    }
+
+
+def cache_key(source: str, sources: dict[str, str], versions: dict[str, str]) -> str:
+    """Hex digest of the specialised source, the sources it compiles and the versions."""
+    h = hashlib.sha256()
+    parts = [source, *(f"{n}\n{t}" for n, t in sorted(sources.items()))]
+    parts += [f"{k}={v}" for k, v in sorted(versions.items())]
+    for part in parts:
+        h.update(part.encode("utf-8"))
+        h.update(b"\0")
+    return h.hexdigest()[:24]
+
+
+def kernel_name(spec: KernelSpec) -> tuple[str, str]:
+    """Module name (from :func:`cache_key`) and specialised source of the kernel for ``spec``."""
+    source = specialise(TEMPLATE.read_text(encoding="utf-8"), spec)
+    return f"signatelec_kernel_{cache_key(source, kernel_sources(), versions())}", source
+
+
+def get_kernel(spec: KernelSpec) -> ModuleType:
+    """The kernel module for ``spec`` (numba compiles or loads it on first call; see
+    :func:`prepare`)."""
+    directory = cache_dir("kernels")
+    loaded = _LOADED.get((spec, directory))
+    if loaded is not None:
+        return loaded
+    name, source = kernel_name(spec)
     path = directory / f"{name}.py"
-    if not path.exists():
-        tmp = path.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_text(specialised, encoding="utf-8")
-        os.replace(tmp, path)  # atomic: concurrent workers never import a half-written file
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
+    _write_source(path, source)
+    module = _import(name, path, spec)
+    _LOADED[(spec, directory)] = module
     return module
+
+
+def _write_source(path: Path, source: str) -> None:
+    """Write ``source`` at ``path`` unless it is there already (rewriting the same text would
+    change its timestamp and make numba recompile); replace a damaged one with a warning."""
+    try:
+        existing = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        existing = None
+    except (OSError, UnicodeDecodeError):
+        existing = ""
+    if existing == source:
+        return
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(source, encoding="utf-8")
+    if existing is None:
+        try:
+            os.link(tmp, path)  # atomic create: a concurrent worker's identical file stays
+        except FileExistsError:
+            pass
+        except OSError:
+            os.replace(tmp, path)
+        tmp.unlink(missing_ok=True)
+        return
+    warnings.warn(
+        CacheWarning(f"kernel cache: {path} did not hold its kernel (damaged); rebuilt"),
+        stacklevel=3,
+    )
+    os.replace(tmp, path)  # atomic: concurrent workers never import a half-written file
+    _purge(path)
+
+
+def _import(name: str, path: Path, spec: KernelSpec) -> ModuleType:
+    module_spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(module_spec)
+    sys.modules[name] = module
+    module_spec.loader.exec_module(module)
+    flags = spec.flags()
+    got = {flag: getattr(module, flag, None) for flag in flags}
+    if got != flags:
+        raise RuntimeError(f"kernel {path}: flags {got}, meant {flags}")
+    return module
+
+
+def _purge(path: Path) -> None:
+    """Remove numba's cache files of the kernel at ``path`` (index and data of every function)."""
+    numba_dirs = {path.parent / "__pycache__"}
+    module = sys.modules.get(path.stem)
+    for entry in ENTRY_POINTS:
+        dispatcher = getattr(module, entry, None)
+        cache = getattr(dispatcher, "_cache", None)
+        if getattr(cache, "cache_path", None):
+            numba_dirs.add(Path(cache.cache_path))
+    for directory in numba_dirs:
+        for file in directory.glob(f"{path.stem}.*"):
+            file.unlink(missing_ok=True)
+
+
+def _from_numba_cache(exc: BaseException) -> bool:
+    frames = traceback.extract_tb(exc.__traceback__)
+    return any(f.filename.endswith(os.path.join("numba", "core", "caching.py")) for f in frames)
+
+
+def prepare(module: ModuleType, spec: KernelSpec, calls: dict[str, tuple]) -> ModuleType:
+    """Compile, or load from the disk cache, the entry points named in ``calls`` for the types of
+    their arguments, without running them. Numba cache files that cannot be read are removed
+    with one warning line and the kernel compiled afresh. Returns the module to call."""
+    for attempt in range(2):
+        try:
+            for entry, args in calls.items():
+                getattr(module, entry).compile(tuple(numba.typeof(a) for a in args))
+            return module
+        except Exception as exc:
+            if attempt or not _from_numba_cache(exc):
+                raise
+            path = Path(module.__file__)
+            warnings.warn(
+                CacheWarning(
+                    f"kernel cache: numba files of {path.name} unreadable "
+                    f"({type(exc).__name__}); rebuilt"
+                ),
+                stacklevel=2,
+            )
+            _purge(path)
+            module = _import(path.stem, path, spec)
+            _LOADED.update({k: module for k, v in _LOADED.items() if v.__name__ == path.stem})
+    raise AssertionError("unreachable")

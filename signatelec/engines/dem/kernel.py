@@ -1,152 +1,80 @@
-"""DEM kernel of the 2D bearing, specialised per effect set.
+"""DEM kernel of the 2D bearing: one source, specialised per KernelSpec.
 
-This file is a template: :mod:`signatelec.engines.dem.build` copies it with the flag block below set
-for one effect set and compiles that copy with numba (``cache=True``), so an effect that is off
-is not in the machine code at all. Every array is float64 unless stated; nothing is allocated in
-the time loop.
+:mod:`signatelec.engines.dem.build` writes this file with its spec block (below) set from a
+:class:`~signatelec.engines.dem.spec.KernelSpec` into the kernel cache and compiles that copy with
+numba (``cache=True``), so a model that is not chosen is not in the machine code at all. The
+spec block holds one boolean per option value the kernel branches on, ``<OPTION>_<VALUE>``
+(``CAGE_BALLS``, ``FRICTION_NONE``, ...), or ``<OPTION>`` for a switch (``ENERGY``).
 
-Bodies, shape (N, 2) with N = 2 Z + 1, [body, xy]: rows 0..Z-1 the balls, Z..2Z-1 the cage balls
-(cage ball j sits between ball j and ball (j + 1) % Z), row 2Z the inner ring. The outer ring is
-fixed, centred at the origin; its race radius follows the clearance phase (seed eq. 14).
-
-Contact forces ``fcon``, shape (Z, 6), [ball, kind]: 0 inner normal, 1 outer normal, 2 inner
-tangential, 3 outer tangential (positive along t = perp(n)), 4 contact with the next body on the
-pitch circle (cage ball j, or ball j+1 without cage), 5 contact of cage ball j with ball j+1.
+Arguments (:mod:`signatelec.engines.dem.records`): ``p`` a parameter record (``p.dt_s``), ``s``
+a :class:`~.records.State`, ``rec`` a :class:`~.records.Recording`. Z balls, N = 2 Z + 1 bodies,
+arrays [body, xy]: rows 0..Z-1 the balls, Z..2Z-1 the cage balls (cage ball j sits between ball
+j and ball (j + 1) % Z), row 2Z the inner ring. The outer ring is fixed, centred at the origin;
+its race radius follows the clearance phase (seed eq. 14). Contact forces ``s.fcon`` (Z, 6),
+[ball, kind]: 0 inner normal, 1 outer normal, 2 inner tangential, 3 outer tangential (positive
+along t = perp(n)), 4 contact with the next body on the pitch circle (cage ball j, or ball j+1
+without cage), 5 contact of cage ball j with ball j+1. Every array is float64 unless stated;
+nothing is allocated in the time loop.
 
 Integrators: velocity Verlet (2nd order; dissipative forces take the predicted velocity
 v + a dt, which keeps 2nd order) or symplectic Euler (1st order, v then x).
 """
 
 # fmt: off
-# --- specialisation flags (the line below is rewritten per effect set) -----------------------
-CAGE, FRICTION, DAMPING, LINEAR, SPRING, GRAVITY, CENTRIFUGAL, ENERGY, VERLET = (True, True, True, False, False, True, True, False, True)  # noqa: E501
+# --- kernel spec: build.specialise rewrites this block from a KernelSpec ----------------------
+# (here: the flags this source reads, at the seed scene's values)
+CAGE_BALLS = True
+CAGE_NONE = False
+FRICTION_COULOMB = True
+DAMPING_CRITICAL = True
+CONTACT_LAW_LINEAR = False
+TANGENTIAL_SPRING = False
+GRAVITY_STANDARD = True
+CENTRIFUGAL_COMPENSATED = False
+ENERGY = False
+INTEGRATOR_VERLET = True
+# --- end of kernel spec -----------------------------------------------------------------------
 # fmt: on
 
-import math
-
-import numpy as np
 from numba import njit
 
+from signatelec.engines.dem.primitives import (
+    FASTMATH,
+    coulomb_limit,
+    damped_normal_force,
+    first_non_finite,
+    inline,
+    kinetic_energy,
+    rquart_warm,
+    rsqrt_warm,
+    schedule,
+)
+from signatelec.engines.dem.records import (
+    NONFINITE,
+    OK,
+    OVERLAP,
+    R_INNER,
+    R_OUTER,
+    R_SIDE0,
+    R_WALL,
+)
 from signatelec.physics import contact as _contact
 
-# No nnan/ninf: the divergence check relies on math.isfinite. The time loop and the functions it
-# calls run without numba's reference counting (_nrt=False): they allocate nothing, and the
-# atomic increments and decrements of every array passed to forces() each step cost 20 % of it.
-FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
-_jit = njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-hertz_elastic_energy = _jit(_contact.hertz_elastic_energy)
-linear_normal_force = _jit(_contact.linear_normal_force)
-linear_elastic_energy = _jit(_contact.linear_elastic_energy)
-tangential_force = _jit(_contact.tangential_force)
+# The contact laws are the functions of signatelec.physics.contact themselves, inlined.
+hertz_elastic_energy = inline(_contact.hertz_elastic_energy)
+linear_normal_force = inline(_contact.linear_normal_force)
+linear_elastic_energy = inline(_contact.linear_elastic_energy)
+tangential_force = inline(_contact.tangential_force)
+#: Entry points, cached on disk (their callees are compiled into them).
+_entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 
 
-# Scalar forms of contact.damped_normal_force and contact.coulomb_limit: numpy's maximum, minimum
-# and sign carry NaN handling the kernel does not need (tests/test_kernel_contacts.py holds them
-# equal to the contact module).
-@_jit
-def damped_normal_force(elastic_force_n, damping_n_s_m, closing_speed_m_s):
-    return max(elastic_force_n + damping_n_s_m * closing_speed_m_s, 0.0)
-
-
-@_jit
-def coulomb_limit(tangential_force_n, normal_force_n, friction_coefficient):
-    limit = friction_coefficient * max(normal_force_n, 0.0)
-    return min(max(tangential_force_n, -limit), limit)
-
-
-# Parameter vector layout (see signatelec.engines.dem.run.kernel_parameters).
-P_DT, P_RB, P_RC, P_RIN, P_ROUT0, P_CLEAR, P_RP = 0, 1, 2, 3, 4, 5, 6
-P_MB, P_IB, P_MC, P_MI, P_FR, P_OMEGA, P_T1, P_T2, P_T3 = 7, 8, 9, 10, 11, 12, 13, 14, 15
-P_G, P_MU, P_MAXFRAC = 16, 17, 18
-P_COEF = 20  # 5 normal-law coefficients, by contact type
-P_MRED = 25  # 5 reduced masses, by contact type
-P_KT = 30  # 2 tangential stiffness factors (inner, outer): K_t = P_KT * sqrt(delta) (Hertz)
-P_DN = 32  # 5 normal damping factors: C_n = P_DN * delta^{1/4} (Hertz) or P_DN (linear)
-P_DTG = 37  # 2 tangential damping factors (inner, outer), same form
-N_PARAMS = 40
-
-# Status codes written to status[0]; status[1] step, status[2] body, status[3] contact type.
-OK, OVERLAP, NONFINITE = 0, 1, 2
-
-# Warm-started roots. Every contact keeps the inverse square root of its centre distance and the
-# inverse fourth root of its overlap in ``roots`` (Z, 20), [ball, slot]: 0-1 inner raceway
-# (distance, overlap), 2-3 outer raceway, 4-5 cage ball j on its boundaries, 6-7 cage ball j on
-# ball j (or ball k on ball k + 1 without cage), 8-9 cage ball j on ball j + 1; slot + 10 holds an
-# overlap root of the step before. A step changes a centre distance by a relative 1e-9 to 1e-5,
-# so a Householder correction of order 4 from the old value, with r = 1 - x y^2 (1 - x y^4), is
-# exact to below 1 ulp where |r| < 2^-13, and replaces a square root and a division (the
-# divider bounds this kernel). Overlaps change faster, so their guess is extrapolated linearly
-# from the two steps before; under 1 % of updates (first touches, the zero cache) fall back to
-# the roots computed directly (seed scene). tests/test_kernel_contacts.py holds warm and cold
-# equal.
-R_INNER, R_OUTER, R_WALL, R_SIDE0, R_SIDE1 = 0, 2, 4, 6, 8
-WARM = 2.0**-13
-
-
-@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-def rsqrt_warm(x, roots, k, slot):
-    """1 / sqrt(x), warm-started from roots[k, slot] and stored back there."""
-    y = roots[k, slot]
-    r = 1.0 - x * y * y
-    if abs(r) < WARM:
-        # (1 - r)^(-1/2) = 1 + r/2 + 3r^2/8 + 5r^3/16 + O(r^4)
-        y = y * (1.0 + r * (0.5 + r * (0.375 + r * 0.3125)))
-    else:
-        y = 1.0 / math.sqrt(x)
-    roots[k, slot] = y
-    return y
-
-
-@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-def rquart_warm(x, roots, k, slot):
-    """x^(-1/4), warm-started from roots[k, slot] and stored back there."""
-    y_old = roots[k, slot]
-    y = 2.0 * y_old - roots[k, slot + 10]
-    y2 = y * y
-    r = 1.0 - x * y2 * y2
-    if abs(r) < WARM and y > 0.0:
-        # (1 - r)^(-1/4) = 1 + r/4 + 5r^2/32 + 15r^3/128 + O(r^4)
-        y = y * (1.0 + r * (0.25 + r * (0.15625 + r * 0.1171875)))
-    else:
-        y = 1.0 / math.sqrt(math.sqrt(x))
-    roots[k, slot + 10] = y_old
-    roots[k, slot] = y
-    return y
-
-
-@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-def schedule(t, p):
-    """Outer race radius and its rate, applied F_r, inner-ring speed at time t (seed 2.2.1-2.2.2).
-
-    Phase ends t1 (clearance), t2 (load), t3 (spin-up); a zero-length phase is a step.
-    Ramps follow (1 - cos(pi s)) / 2, the sinusoidal profile of the seed.
-    """
-    t1, t2, t3 = p[P_T1], p[P_T2], p[P_T3]
-    r_out = p[P_ROUT0] + p[P_CLEAR]
-    r_rate = 0.0
-    if t < t1:
-        s = t / t1
-        r_out = p[P_ROUT0] + p[P_CLEAR] * 0.5 * (1.0 - math.cos(math.pi * s))
-        r_rate = p[P_CLEAR] * 0.5 * math.pi / t1 * math.sin(math.pi * s)
-    fr = p[P_FR]
-    if t < t1:
-        fr = 0.0
-    elif t < t2:
-        fr = p[P_FR] * 0.5 * (1.0 - math.cos(math.pi * (t - t1) / (t2 - t1)))
-    omega = p[P_OMEGA]
-    if t < t2:
-        omega = 0.0
-    elif t < t3:
-        omega = p[P_OMEGA] * 0.5 * (1.0 - math.cos(math.pi * (t - t2) / (t3 - t2)))
-    return r_out, r_rate, fr, omega
-
-
-@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+@inline
 def normal_law(overlap, closing_speed, kind, p, roots, k, slot):
     """Elastic and total normal force of one contact of type ``kind`` (seed eqs 3, 5, 8, 9).
 
     Returns (elastic force, total force, sqrt(delta), delta^{1/4}); the damping is critical with
-    the tangent stiffness, C_n = P_DN delta^{1/4} = contact.hertz_critical_damping (Hertz) or
+    the tangent stiffness, C_n = factor delta^{1/4} = contact.hertz_critical_damping (Hertz) or
     constant (linear); sqrt(delta) and delta^{1/4} are reused by the tangential law. The Hertz
     force is contact.hertz_normal_force written with those roots, warm-started from
     roots[k, slot] (the kernel calls this with delta > 0 only); tests/test_kernel_contacts.py
@@ -154,50 +82,77 @@ def normal_law(overlap, closing_speed, kind, p, roots, k, slot):
     """
     root = 1.0
     quarter = 1.0
-    if LINEAR:
-        fe = linear_normal_force(overlap, p[P_COEF + kind])
+    coef = p.normal_coefficient[kind]
+    if CONTACT_LAW_LINEAR:
+        fe = linear_normal_force(overlap, coef)
     else:
         if not overlap > 0.0:
             # d2 < reach^2 but d = d2 / sqrt(d2) rounded up to reach: touching, no force
             return 0.0, 0.0, 0.0, 0.0
-        if DAMPING:
+        if DAMPING_CRITICAL:
             y = rquart_warm(overlap, roots, k, slot)
             quarter = overlap * y * y * y
             root = quarter * quarter
         else:
             root = overlap * rsqrt_warm(overlap, roots, k, slot)
-        fe = p[P_COEF + kind] * overlap * root
-    if DAMPING:
-        fn = damped_normal_force(fe, p[P_DN + kind] * quarter, closing_speed)
+        fe = coef * overlap * root
+    if DAMPING_CRITICAL:
+        fn = damped_normal_force(fe, p.normal_damping_factor[kind] * quarter, closing_speed)
     else:
         fn = max(fe, 0.0)
     return fe, fn, root, quarter
 
 
-@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-def tangential_law(k, side, root, quarter, slip_speed, fn, p, xi, dt):
+@inline
+def normal_contact(overlap, closing_speed, kind, limit_m, body, p, s, k, slot, step):
+    """One contact of type ``kind`` with ``overlap`` (> 0 for a Hertz law): its normal force.
+
+    Flags an overlap beyond ``limit_m`` in ``s.status`` (body, kind). Returns (normal force,
+    sqrt(delta), delta^{1/4}, energy dissipated by the normal damping over the step, elastic
+    energy); the energies are 0 unless the spec has ENERGY.
+    """
+    if overlap > limit_m:
+        s.status[0] = OVERLAP
+        s.status[1] = step
+        s.status[2] = body
+        s.status[3] = kind
+    fe, fn, root, quarter = normal_law(overlap, closing_speed, kind, p, s.roots, k, slot)
+    loss = 0.0
+    elastic = 0.0
+    if ENERGY:
+        loss = (fn - fe) * closing_speed * p.dt_s
+        if CONTACT_LAW_LINEAR:
+            elastic = linear_elastic_energy(overlap, p.normal_coefficient[kind])
+        else:
+            elastic = hertz_elastic_energy(overlap, p.normal_coefficient[kind])
+    return fn, root, quarter, loss, elastic
+
+
+@inline
+def tangential_law(k, side, root, quarter, slip_speed, fn, p, xi):
     """Tangential force on a ball/raceway contact: Mindlin stiffness (eq. 7), critical damping
     (eq. 5), seed displacement v_t dt or accumulated spring, Coulomb limit (eq. 4).
 
     The seed's delta_t = v_t dt makes F_t = -(K_t dt + C_t) v_t: the model itself depends on dt,
     so any integrator converges at first order with it; the accumulated spring does not.
     """
-    if LINEAR:
-        kt = p[P_KT + side]
+    dt = p.dt_s
+    if CONTACT_LAW_LINEAR:
+        kt = p.tangential_stiffness_factor[side]
     else:
-        kt = p[P_KT + side] * root  # contact.tangential_stiffness_from_overlap
+        kt = p.tangential_stiffness_factor[side] * root  # tangential_stiffness_from_overlap
     ct = 0.0
-    if DAMPING:
-        ct = p[P_DTG + side] * quarter  # critical_damping(kt, m*) with kt ~ sqrt(delta)
-    if SPRING:
+    if DAMPING_CRITICAL:
+        ct = p.tangential_damping_factor[side] * quarter  # critical_damping, K_t ~ sqrt(delta)
+    if TANGENTIAL_SPRING:
         # trapezoid rule on d(delta_t)/dt = v_t (xi[:, 2:4] keeps the previous slip speed):
         # second order, like the Verlet step
         disp = xi[k, side] + 0.5 * (xi[k, 2 + side] + slip_speed) * dt
         xi[k, 2 + side] = slip_speed
     else:
         disp = slip_speed * dt
-    ft = coulomb_limit(tangential_force(kt, disp, ct, slip_speed), fn, p[P_MU])
-    if SPRING:
+    ft = coulomb_limit(tangential_force(kt, disp, ct, slip_speed), fn, p.friction_coefficient)
+    if TANGENTIAL_SPRING:
         # On slip, the spring keeps the displacement that gives the Coulomb force.
         if kt > 0.0:
             xi[k, side] = -(ft + ct * slip_speed) / kt
@@ -206,43 +161,45 @@ def tangential_law(k, side, root, quarter, slip_speed, fn, p, xi, dt):
     return ft
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
-def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, status, step):  # noqa: E501
-    """Accelerations of every body at time t from positions and (predicted) velocities."""
+@_entry
+def forces(t, p, s, acc, step):
+    """Accelerations ``acc`` (N, 2) of every body at time t from the positions and (predicted)
+    velocities of ``s``; also writes s.spin_acc, s.fcon, s.sched, s.energy, s.xi, s.roots and,
+    on an overlap beyond ``p.max_overlap_fraction`` of a radius, s.status."""
+    pos, vel, spin, roots, fcon, xi = s.pos, s.vel, s.spin, s.roots, s.fcon, s.xi
     z = spin.shape[0]
     ring = 2 * z
-    dt = p[P_DT]
-    rb, rc, rin, rp = p[P_RB], p[P_RC], p[P_RIN], p[P_RP]
-    mb, ib, mc, mi = p[P_MB], p[P_IB], p[P_MC], p[P_MI]
-    maxfrac = p[P_MAXFRAC]
+    dt = p.dt_s
+    rb, rc, rin, rp = p.ball_radius_m, p.cage_ball_radius_m, p.inner_race_radius_m, p.pitch_radius_m
+    mb, mc, mi = p.ball_mass_kg, p.cage_ball_mass_kg, p.inner_ring_mass_kg
+    ball_limit = p.max_overlap_fraction * rb
+    cage_limit = p.max_overlap_fraction * rc
     r_out, r_rate, fr, omega = schedule(t, p)
-    sched[0] = r_out
-    sched[1] = fr
-    sched[2] = omega
+    s.sched[0] = r_out
+    s.sched[1] = fr
+    s.sched[2] = omega
     drive_torque = 0.0
     loss = 0.0
     work = 0.0
     elastic = 0.0
     # External loads: F_r along -y on the inner ring (seed 2.2.2), gravity on every body. The
     # ring's force and each ball's force and torque gather in locals (no loop-carried stores).
-    g = p[P_G] if GRAVITY else 0.0
+    g = p.gravity_m_s2 if GRAVITY_STANDARD else 0.0
     ring_fx = 0.0
     ring_fy = -fr - mi * g
-    if not CAGE:
+    if not CAGE_BALLS:
         for k in range(z):
             acc[z + k, 0] = 0.0
             acc[z + k, 1] = 0.0
     if ENERGY:
         work += -fr * vel[ring, 1] * dt
-        if GRAVITY:
+        if GRAVITY_STANDARD:
             wsum = mi * vel[ring, 1]
             for k in range(z):
                 wsum += mb * vel[k, 1] + mc * vel[z + k, 1]
             work += -g * wsum * dt
-    inv_ib = 1.0 / ib
+    inv_ib = 1.0 / p.ball_inertia_kg_m2
 
-    cin = p[P_COEF + 0]
-    cout = p[P_COEF + 1]
     for k in range(z):
         x = pos[k, 0]
         y = pos[k, 1]
@@ -256,25 +213,22 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
         reach = rin + rb
         if d2 < reach * reach:
             inv = rsqrt_warm(d2, roots, k, R_INNER)
-            d = d2 * inv
             nx = dx * inv
             ny = dy * inv
-            ov = reach - d
-            if ov > maxfrac * rb:
-                status[0] = OVERLAP
-                status[1] = step
-                status[2] = k
-                status[3] = 0
             rvx = vel[k, 0] - vel[ring, 0]
             rvy = vel[k, 1] - vel[ring, 1]
             vclose = -(rvx * nx + rvy * ny)
-            fe, fn, rd, qd = normal_law(ov, vclose, 0, p, roots, k, R_INNER + 1)
+            fn, rd, qd, dloss, de = normal_contact(
+                reach - d2 * inv, vclose, 0, ball_limit, k, p, s, k, R_INNER + 1, step
+            )
+            loss += dloss
+            elastic += de
             fx = fn * nx
             fy = fn * ny
             ft = 0.0
-            if FRICTION:
+            if FRICTION_COULOMB:
                 vt = -rvx * ny + rvy * nx - spin[k] * rb - omega * rin
-                ft = tangential_law(k, 0, rd, qd, vt, fn, p, xi, dt)
+                ft = tangential_law(k, 0, rd, qd, vt, fn, p, xi)
                 fx += -ft * ny
                 fy += ft * nx
                 torque -= rb * ft
@@ -287,27 +241,21 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
             ring_fy -= fy
             fcon[k, 0] = fn
             fcon[k, 2] = ft
-            if ENERGY:
-                loss += (fn - fe) * vclose * dt
-                if LINEAR:
-                    elastic += linear_elastic_energy(ov, cin)
-                else:
-                    elastic += hertz_elastic_energy(ov, cin)
         else:
             fcon[k, 0] = 0.0
             fcon[k, 2] = 0.0
-            if SPRING:
+            if TANGENTIAL_SPRING:
                 xi[k, 0] = 0.0
                 xi[k, 2] = 0.0
         # --- ball / outer raceway -----------------------------------------------------
         r2 = x * x + y * y
         inside = r_out - rb
-        if r2 > inside * inside or not CENTRIFUGAL:
+        if r2 > inside * inside or CENTRIFUGAL_COMPENSATED:
             inv = rsqrt_warm(r2, roots, k, R_OUTER)
             r = r2 * inv
             nx = x * inv
             ny = y * inv
-            if not CENTRIFUGAL:
+            if CENTRIFUGAL_COMPENSATED:
                 # cancel the centrifugal load: add the centripetal force m v_t^2 / r (inward)
                 vtan = -vel[k, 0] * ny + vel[k, 1] * nx
                 fcp = mb * vtan * vtan / r
@@ -316,20 +264,18 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
                 if ENERGY:
                     work += -fcp * (vel[k, 0] * nx + vel[k, 1] * ny) * dt
         if r2 > inside * inside:
-            ov = r + rb - r_out
-            if ov > maxfrac * rb:
-                status[0] = OVERLAP
-                status[1] = step
-                status[2] = k
-                status[3] = 1
             vclose = vel[k, 0] * nx + vel[k, 1] * ny - r_rate
-            fe, fn, rd, qd = normal_law(ov, vclose, 1, p, roots, k, R_OUTER + 1)
+            fn, rd, qd, dloss, de = normal_contact(
+                r + rb - r_out, vclose, 1, ball_limit, k, p, s, k, R_OUTER + 1, step
+            )
+            loss += dloss
+            elastic += de
             fx = -fn * nx
             fy = -fn * ny
             ft = 0.0
-            if FRICTION:
+            if FRICTION_COULOMB:
                 vt = -vel[k, 0] * ny + vel[k, 1] * nx + spin[k] * rb
-                ft = tangential_law(k, 1, rd, qd, vt, fn, p, xi, dt)
+                ft = tangential_law(k, 1, rd, qd, vt, fn, p, xi)
                 fx += -ft * ny
                 fy += ft * nx
                 torque += rb * ft
@@ -340,25 +286,18 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
             fcon[k, 1] = fn
             fcon[k, 3] = ft
             if ENERGY:
-                loss += (fn - fe) * vclose * dt
                 work += -fn * r_rate * dt
-                if LINEAR:
-                    elastic += linear_elastic_energy(ov, cout)
-                else:
-                    elastic += hertz_elastic_energy(ov, cout)
         else:
             fcon[k, 1] = 0.0
             fcon[k, 3] = 0.0
-            if SPRING:
+            if TANGENTIAL_SPRING:
                 xi[k, 1] = 0.0
                 xi[k, 3] = 0.0
         acc[k, 0] = ball_fx
         acc[k, 1] = ball_fy
-        spin_acc[k] = torque * inv_ib
+        s.spin_acc[k] = torque * inv_ib
 
-    if CAGE:
-        cbc = p[P_COEF + 2]
-        cwall = p[P_COEF + 3]
+    if CAGE_BALLS:
         reach = rb + rc
         inv_mc = 1.0 / mc
         for j in range(z):
@@ -370,29 +309,20 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
             # cage ball / its two frictionless boundaries at r_p -+ r_c (table 2 "cage/cage")
             r2 = cx * cx + cy * cy
             inv = rsqrt_warm(r2, roots, j, R_WALL)
-            r = r2 * inv
             nx = cx * inv
             ny = cy * inv
-            ov = r - rp  # > 0: on the outer boundary (pushed in); < 0: on the inner one
+            ov = r2 * inv - rp  # > 0: on the outer boundary (pushed in); < 0: on the inner one
             if ov != 0.0:
                 sgn = 1.0 if ov > 0.0 else -1.0
-                aov = abs(ov)
-                if aov > maxfrac * rc:
-                    status[0] = OVERLAP
-                    status[1] = step
-                    status[2] = c
-                    status[3] = 3
                 vclose = sgn * (vel[c, 0] * nx + vel[c, 1] * ny)
-                fe, fn, rd, qd = normal_law(aov, vclose, 3, p, roots, j, R_WALL + 1)
+                fn, rd, qd, dloss, de = normal_contact(
+                    abs(ov), vclose, 3, cage_limit, c, p, s, j, R_WALL + 1, step
+                )
+                loss += dloss
+                elastic += de
                 cage_fx -= sgn * fn * nx
                 cage_fy -= sgn * fn * ny
-                if ENERGY:
-                    loss += (fn - fe) * vclose * dt
-                    if LINEAR:
-                        elastic += linear_elastic_energy(aov, cwall)
-                    else:
-                        elastic += hertz_elastic_energy(aov, cwall)
-            # cage ball j against ball j (slot 4) and ball j + 1 (slot 5): frictionless
+            # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1): frictionless
             for side in range(2):
                 k = j if side == 0 else (j + 1 if j + 1 < z else 0)
                 dx = cx - pos[k, 0]
@@ -401,34 +331,24 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
                 if d2 < reach * reach:
                     slot = R_SIDE0 + 2 * side
                     inv = rsqrt_warm(d2, roots, j, slot)
-                    d = d2 * inv
                     nx = dx * inv
                     ny = dy * inv
-                    ov = reach - d
-                    if ov > maxfrac * rc:
-                        status[0] = OVERLAP
-                        status[1] = step
-                        status[2] = c
-                        status[3] = 2
                     vclose = -((vel[c, 0] - vel[k, 0]) * nx + (vel[c, 1] - vel[k, 1]) * ny)
-                    fe, fn, rd, qd = normal_law(ov, vclose, 2, p, roots, j, slot + 1)
+                    fn, rd, qd, dloss, de = normal_contact(
+                        reach - d2 * inv, vclose, 2, cage_limit, c, p, s, j, slot + 1, step
+                    )
+                    loss += dloss
+                    elastic += de
                     cage_fx += fn * nx
                     cage_fy += fn * ny
                     acc[k, 0] -= fn * nx
                     acc[k, 1] -= fn * ny
                     fcon[j, 4 + side] = fn
-                    if ENERGY:
-                        loss += (fn - fe) * vclose * dt
-                        if LINEAR:
-                            elastic += linear_elastic_energy(ov, cbc)
-                        else:
-                            elastic += hertz_elastic_energy(ov, cbc)
                 else:
                     fcon[j, 4 + side] = 0.0
             acc[c, 0] = cage_fx * inv_mc
             acc[c, 1] = cage_fy * inv_mc
-    else:
-        cbb = p[P_COEF + 4]
+    if CAGE_NONE:
         reach = 2.0 * rb
         for k in range(z):
             m = k + 1 if k + 1 < z else 0
@@ -437,28 +357,19 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
             d2 = dx * dx + dy * dy
             if d2 < reach * reach:
                 inv = rsqrt_warm(d2, roots, k, R_SIDE0)
-                d = d2 * inv
                 nx = dx * inv
                 ny = dy * inv
-                ov = reach - d
-                if ov > maxfrac * rb:
-                    status[0] = OVERLAP
-                    status[1] = step
-                    status[2] = k
-                    status[3] = 4
                 vclose = -((vel[m, 0] - vel[k, 0]) * nx + (vel[m, 1] - vel[k, 1]) * ny)
-                fe, fn, rd, qd = normal_law(ov, vclose, 4, p, roots, k, R_SIDE0 + 1)
+                fn, rd, qd, dloss, de = normal_contact(
+                    reach - d2 * inv, vclose, 4, ball_limit, k, p, s, k, R_SIDE0 + 1, step
+                )
+                loss += dloss
+                elastic += de
                 acc[m, 0] += fn * nx
                 acc[m, 1] += fn * ny
                 acc[k, 0] -= fn * nx
                 acc[k, 1] -= fn * ny
                 fcon[k, 4] = fn
-                if ENERGY:
-                    loss += (fn - fe) * vclose * dt
-                    if LINEAR:
-                        elastic += linear_elastic_energy(ov, cbb)
-                    else:
-                        elastic += hertz_elastic_energy(ov, cbb)
             else:
                 fcon[k, 4] = 0.0
             fcon[k, 5] = 0.0
@@ -470,71 +381,52 @@ def forces(t, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, 
         acc[k, 1] *= inv_mb
     acc[ring, 0] = ring_fx / mi
     acc[ring, 1] = ring_fy / mi
-    sched[3] = drive_torque
+    s.sched[3] = drive_torque
     if ENERGY:
-        energy[0] += work + drive_torque * omega * dt
-        energy[1] += loss
-        energy[2] = elastic
+        s.energy[0] += work + drive_torque * omega * dt
+        s.energy[1] += loss
+        s.energy[2] = elastic
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
-def kinetic_energy(p, vel, spin):
-    z = spin.shape[0]
-    e = 0.5 * p[P_MI] * (vel[2 * z, 0] ** 2 + vel[2 * z, 1] ** 2)
+# Not inlined: inlined into run(), this rarely taken branch slowed every step by 30 % (energy on).
+@njit(error_model="numpy", _nrt=False)
+def record(p, s, rec, i, t):
+    """Copy the state into recorded instant ``i`` at time ``t``."""
+    z = s.spin.shape[0]
+    rec.time_s[i] = t
+    for b in range(2 * z + 1):
+        rec.pos[i, b, 0] = s.pos[b, 0]
+        rec.pos[i, b, 1] = s.pos[b, 1]
+        rec.vel[i, b, 0] = s.vel[b, 0]
+        rec.vel[i, b, 1] = s.vel[b, 1]
     for k in range(z):
-        e += 0.5 * p[P_MB] * (vel[k, 0] ** 2 + vel[k, 1] ** 2) + 0.5 * p[P_IB] * spin[k] ** 2
-        e += 0.5 * p[P_MC] * (vel[z + k, 0] ** 2 + vel[z + k, 1] ** 2)
-    return e
-
-
-@njit(cache=True, error_model="numpy", _nrt=False)
-def first_non_finite(pos, vel):
-    """Index of the first body whose position or velocity is not finite, else -1."""
-    for i in range(pos.shape[0]):
-        if not math.isfinite(pos[i, 0] + pos[i, 1] + vel[i, 0] + vel[i, 1]):
-            return i
-    return -1
+        rec.spin[i, k] = s.spin[k]
+        for q in range(6):
+            rec.fcon[i, k, q] = s.fcon[k, q]
+    for q in range(4):
+        rec.sched[i, q] = s.sched[q]
+    if ENERGY:
+        rec.energy[i, 0] = s.energy[0]
+        rec.energy[i, 1] = s.energy[1]
+        rec.energy[i, 2] = s.energy[2]
+        rec.energy[i, 3] = kinetic_energy(p, s)
 
 
 # No fastmath in the time loop: reassociating v dt + a dt^2 / 2 would let an overflowing
 # acceleration stay finite and slip past the divergence check (the step costs the same).
 @njit(cache=True, error_model="numpy", _nrt=False)
-def run(
-    p,
-    pos,
-    vel,
-    acc,
-    spin,
-    spin_acc,
-    xi,
-    roots,
-    fcon,
-    sched,
-    energy,
-    work2,
-    step0,
-    n_steps,
-    record_every,
-    rec_index0,
-    rec_time,
-    rec_pos,
-    rec_vel,
-    rec_spin,
-    rec_fcon,
-    rec_sched,
-    rec_energy,
-    status,
-):
-    """Advance ``n_steps`` from step ``step0``; record every ``record_every`` steps.
+def run(p, s, rec, step0, n_steps, record_every, rec_index0):
+    """Advance state ``s`` by ``n_steps`` from step ``step0``; record into ``rec`` from index
+    ``rec_index0`` every ``record_every`` steps.
 
-    ``work2`` is scratch of shape (N + Z, 2) (new accelerations and spin accelerations). Returns
-    the next free record index. Stops at once when ``status[0]`` becomes non-zero.
+    Returns the next free record index. Stops at once when ``s.status[0]`` becomes non-zero.
     """
+    pos, vel, acc, spin, spin_acc, work2 = s.pos, s.vel, s.acc, s.spin, s.spin_acc, s.scratch
     z = spin.shape[0]
     nb = 2 * z + 1
-    dt = p[P_DT]
+    dt = p.dt_s
     half_dt2 = 0.5 * dt * dt
-    rec = rec_index0
+    rec_index = rec_index0
     acc_new = work2[:nb]
     # flat views: the update loops run over 2 N contiguous values (and vectorise)
     n2 = 2 * nb
@@ -543,10 +435,10 @@ def run(
     acc_f = acc.reshape(n2)
     acc_new_f = work2.reshape(2 * work2.shape[0])[:n2]
     countdown = record_every - step0 % record_every  # steps to the next recorded one
-    for s in range(n_steps):
-        step = step0 + s
+    for i_step in range(n_steps):
+        step = step0 + i_step
         t_new = (step + 1) * dt
-        if VERLET:
+        if INTEGRATOR_VERLET:
             # positions, then predicted velocities for the dissipative forces (in place)
             for i in range(n2):
                 pos_f[i] += vel_f[i] * dt + acc_f[i] * half_dt2
@@ -557,8 +449,8 @@ def run(
             t_eval = t_new
         else:
             t_eval = step * dt  # symplectic Euler: forces at (x_n, v_n)
-        forces(t_eval, p, pos, vel, spin, acc_new, spin_acc, xi, roots, fcon, sched, energy, status, step)  # noqa: E501  # fmt: skip
-        if VERLET:
+        forces(t_eval, p, s, acc_new, step)
+        if INTEGRATOR_VERLET:
             # v_{n+1} = v_pred + (a_new - a_old) dt / 2
             for i in range(n2):
                 vel_f[i] += 0.5 * (acc_new_f[i] - acc_f[i]) * dt
@@ -573,46 +465,27 @@ def run(
                 pos_f[i] += vel_f[i] * dt
             for k in range(z):
                 spin[k] += spin_acc[k] * dt
-        if status[0] != OK:
-            return rec
+        if s.status[0] != OK:
+            return rec_index
         countdown -= 1
         if countdown == 0:
             countdown = record_every
             bad = first_non_finite(pos, vel)
             if bad >= 0:
-                status[0] = NONFINITE
-                status[1] = step
-                status[2] = bad
-                status[3] = -1
-                return rec
-            if rec < rec_time.shape[0]:
-                rec_time[rec] = t_new
-                for i in range(nb):
-                    rec_pos[rec, i, 0] = pos[i, 0]
-                    rec_pos[rec, i, 1] = pos[i, 1]
-                    rec_vel[rec, i, 0] = vel[i, 0]
-                    rec_vel[rec, i, 1] = vel[i, 1]
-                for k in range(z):
-                    rec_spin[rec, k] = spin[k]
-                    for q in range(6):
-                        rec_fcon[rec, k, q] = fcon[k, q]
-                for q in range(4):
-                    rec_sched[rec, q] = sched[q]
-                if ENERGY:
-                    rec_energy[rec, 0] = energy[0]
-                    rec_energy[rec, 1] = energy[1]
-                    rec_energy[rec, 2] = energy[2]
-                    rec_energy[rec, 3] = kinetic_energy(p, vel, spin)
-                rec += 1
-    return rec
+                s.status[0] = NONFINITE
+                s.status[1] = step
+                s.status[2] = bad
+                s.status[3] = -1
+                return rec_index
+            if rec_index < rec.time_s.shape[0]:
+                record(p, s, rec, rec_index, t_new)
+                rec_index += 1
+    return rec_index
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
-def start(p, pos, vel, acc, spin, spin_acc, xi, roots, fcon, sched, energy, status):
+@_entry
+def start(p, s):
     """Initial accelerations at t = 0 (needed by velocity Verlet)."""
-    forces(0.0, p, pos, vel, spin, acc, spin_acc, xi, roots, fcon, sched, energy, status, 0)
-    energy[0] = 0.0
-    energy[1] = 0.0
-
-
-_unused = np  # numpy is imported for numba's typing of the shared contact functions
+    forces(0.0, p, s, s.acc, 0)
+    s.energy[0] = 0.0
+    s.energy[1] = 0.0

@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, contact_properties
 from signatelec.config.scene import Scene, SceneError
-from signatelec.engines.dem import kernel as K
-from signatelec.engines.dem.build import KernelFlags, get_kernel
+from signatelec.engines.dem.build import get_kernel, prepare
+from signatelec.engines.dem.records import OK, State, new_parameters, new_recording, new_state
+from signatelec.engines.dem.spec import KernelSpec
 from signatelec.engines.dem.stability import stability_limit
 from signatelec.engines.laws import scene_law
 from signatelec.engines.results import (
@@ -46,108 +46,68 @@ _CONTACT_NAMES = {
 }
 
 
-def kernel_parameters(scene: Scene) -> np.ndarray:
+def kernel_parameters(scene: Scene) -> np.void:
+    """The parameter record of ``scene`` (:data:`signatelec.engines.dem.records.PARAMS`)."""
     b, op = scene.bearing, scene.operating
     coef, exponent = scene_law(scene)
     props = contact_properties(b)
-    p = np.zeros(K.N_PARAMS)
-    p[K.P_DT] = scene.numerics.dt_s
-    p[K.P_RB] = b.ball_radius_m
-    p[K.P_RC] = b.cage_ball_radius_m
-    p[K.P_RIN] = b.inner_race_radius_m
-    p[K.P_ROUT0] = b.outer_race_radius_m
-    p[K.P_CLEAR] = op.clearance_m
-    p[K.P_RP] = b.pitch_radius_m
-    p[K.P_MB] = b.ball_mass_kg
-    p[K.P_IB] = b.ball_inertia_kg_m2
-    p[K.P_MC] = b.cage_ball_mass_kg
-    p[K.P_MI] = b.inner_ring_mass_kg
-    p[K.P_FR] = op.radial_load_n
-    p[K.P_OMEGA] = op.omega_rad_s
-    p[K.P_T1], p[K.P_T2], p[K.P_T3] = phase_times(scene)
-    p[K.P_G] = STANDARD_GRAVITY_M_S2
-    p[K.P_MU] = b.friction_coefficient
-    p[K.P_MAXFRAC] = 0.1
-    p[K.P_COEF : K.P_COEF + 5] = coef
-    p[K.P_MRED : K.P_MRED + 5] = [c.reduced_mass_kg for c in props]
+    p = new_parameters()
+    p["dt_s"] = scene.numerics.dt_s
+    p["ball_radius_m"] = b.ball_radius_m
+    p["cage_ball_radius_m"] = b.cage_ball_radius_m
+    p["inner_race_radius_m"] = b.inner_race_radius_m
+    p["outer_race_radius_m"] = b.outer_race_radius_m
+    p["clearance_m"] = op.clearance_m
+    p["pitch_radius_m"] = b.pitch_radius_m
+    p["ball_mass_kg"] = b.ball_mass_kg
+    p["ball_inertia_kg_m2"] = b.ball_inertia_kg_m2
+    p["cage_ball_mass_kg"] = b.cage_ball_mass_kg
+    p["inner_ring_mass_kg"] = b.inner_ring_mass_kg
+    p["radial_load_n"] = op.radial_load_n
+    p["omega_rad_s"] = op.omega_rad_s
+    p["clearance_end_s"], p["load_end_s"], p["spin_up_end_s"] = phase_times(scene)
+    p["gravity_m_s2"] = STANDARD_GRAVITY_M_S2
+    p["friction_coefficient"] = b.friction_coefficient
+    p["max_overlap_fraction"] = 0.1
+    p["normal_coefficient"] = coef
     for kind, c in enumerate(props):
         # damping factors: C = factor (linear) or factor * delta^{1/4} (Hertz), eq. 5 and 9
         if exponent == 1.0:
-            p[K.P_DN + kind] = critical_damping(coef[kind], c.reduced_mass_kg)
+            p["normal_damping_factor"][kind] = critical_damping(coef[kind], c.reduced_mass_kg)
         else:
-            p[K.P_DN + kind] = hertz_critical_damping(1.0, coef[kind], c.reduced_mass_kg)
+            p["normal_damping_factor"][kind] = hertz_critical_damping(
+                1.0, coef[kind], c.reduced_mass_kg
+            )
     for side in (0, 1):
         c = props[side]
         if exponent == 1.0:
-            p[K.P_KT + side] = 2.0 / 3.0 * coef[side]  # eq. 5: K_t / K_n in [2/3, 1]
+            kt = 2.0 / 3.0 * coef[side]  # eq. 5: K_t / K_n in [2/3, 1]
         else:
             mc = mindlin_coefficient(c.radius_eq_m, c.shear_modulus_pa, c.poisson)
-            p[K.P_KT + side] = tangential_stiffness_from_overlap(1.0, coef[side], mc)
-        # critical tangential damping 2 sqrt(K_t m*), K_t = P_KT sqrt(delta) -> factor delta^{1/4}
-        p[K.P_DTG + side] = critical_damping(p[K.P_KT + side], c.reduced_mass_kg)
+            kt = tangential_stiffness_from_overlap(1.0, coef[side], mc)
+        p["tangential_stiffness_factor"][side] = kt
+        # critical tangential damping 2 sqrt(K_t m*), K_t = factor sqrt(delta): factor delta^{1/4}
+        p["tangential_damping_factor"][side] = critical_damping(kt, c.reduced_mass_kg)
     return p
 
 
-@dataclass
-class KernelState:
-    pos: np.ndarray
-    vel: np.ndarray
-    acc: np.ndarray
-    spin: np.ndarray
-    spin_acc: np.ndarray
-    xi: np.ndarray
-    roots: np.ndarray
-    fcon: np.ndarray
-    sched: np.ndarray
-    energy: np.ndarray
-    work2: np.ndarray
-    status: np.ndarray
-
-    @property
-    def arrays(self) -> tuple[np.ndarray, ...]:
-        """The state arrays in the order the kernel's ``start`` and ``run`` take them."""
-        return (
-            self.pos,
-            self.vel,
-            self.acc,
-            self.spin,
-            self.spin_acc,
-            self.xi,
-            self.roots,
-            self.fcon,
-            self.sched,
-            self.energy,
-        )
-
-    @classmethod
-    def initial(cls, scene: Scene) -> KernelState:
-        b = scene.bearing
-        z = b.n_balls
-        psi = scene.operating.initial_ball_angle_rad + 2.0 * math.pi * np.arange(z) / z
-        psi_c = psi + math.pi / z
-        pos = np.zeros((2 * z + 1, 2))
-        rp = b.pitch_radius_m
-        pos[:z, 0], pos[:z, 1] = rp * np.sin(psi), -rp * np.cos(psi)
-        pos[z : 2 * z, 0], pos[z : 2 * z, 1] = rp * np.sin(psi_c), -rp * np.cos(psi_c)
-        return cls(
-            pos=pos,
-            vel=np.zeros_like(pos),
-            acc=np.zeros_like(pos),
-            spin=np.zeros(z),
-            spin_acc=np.zeros(z),
-            xi=np.zeros((z, 4)),
-            roots=np.zeros((z, 20)),  # warm-start cache of kernel.rsqrt_warm
-            fcon=np.zeros((z, 6)),
-            sched=np.zeros(4),
-            energy=np.zeros(4),
-            work2=np.zeros((3 * z + 1, 2)),
-            status=np.zeros(4, np.int64),
-        )
+def initial_state(scene: Scene) -> State:
+    """Balls and cage balls on the pitch circle, ball 0 at ``initial_ball_angle_rad`` from the
+    load direction, everything at rest."""
+    b = scene.bearing
+    z = b.n_balls
+    psi = scene.operating.initial_ball_angle_rad + 2.0 * math.pi * np.arange(z) / z
+    psi_c = psi + math.pi / z
+    pos = np.zeros((2 * z + 1, 2))
+    rp = b.pitch_radius_m
+    pos[:z, 0], pos[:z, 1] = rp * np.sin(psi), -rp * np.cos(psi)
+    pos[z : 2 * z, 0], pos[z : 2 * z, 1] = rp * np.sin(psi_c), -rp * np.cos(psi_c)
+    return new_state(pos)
 
 
 def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFrame]:
     z = scene.bearing.n_balls
-    t, pos, vel, spin, fcon, sched, energy = (a[:n_rec] for a in rec)
+    t, pos, vel, spin, fcon, sched, energy = (a[:n_rec] for a in rec)  # Recording order
     ring = 2 * z
     bx, by = pos[:, :z, 0], pos[:, :z, 1]
     r2 = bx * bx + by * by
@@ -192,7 +152,7 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
             "max_ball_load_n": fcon[:, :, 0].max(axis=1),
         }
     )
-    if scene.effects.energy:
+    if scene.outputs.energy:
         signals["work_in_j"] = energy[:, 0]
         signals["dissipated_j"] = energy[:, 1]
         signals["elastic_j"] = energy[:, 2]
@@ -229,7 +189,7 @@ def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray)
         scene.operating.injected_current_a,
         ball_xy_m=pos[:, :z],
         inner_ring_xy_m=pos[:, 2 * z],
-        ball_ball_force_n=None if scene.effects.cage else fcon[:, :, 4],
+        ball_ball_force_n=fcon[:, :, 4] if scene.effects.cage == "none" else None,
     )
     result.signals["resistance_ohm"] = el.resistance_ohm
     result.signals["max_current_density_a_m2"] = el.max_current_density_a_m2
@@ -250,30 +210,17 @@ def simulate_dem(scene: Scene | None = None, *, progress: bool = False) -> Simul
             f"numerics.dt_s = {scene.numerics.dt_s:g}: above the {limit.describe()}; "
             f"use dt_s <= {limit.dt_limit_s:.3g} s"
         )
-    flags = KernelFlags.from_scene(scene)
-    kern = get_kernel(flags)
+    spec = KernelSpec.from_scene(scene)
+    kern = get_kernel(spec)
     p = kernel_parameters(scene)
-    st = KernelState.initial(scene)
+    st = initial_state(scene)
     n_steps, every = scene.n_steps, scene.record_every
-    n_rec = n_steps // every
-    z = scene.bearing.n_balls
-    nb = 2 * z + 1
-    rec = (
-        np.zeros(n_rec),
-        np.zeros((n_rec, nb, 2)),
-        np.zeros((n_rec, nb, 2)),
-        np.zeros((n_rec, z)),
-        np.zeros((n_rec, z, 6)),
-        np.zeros((n_rec, 4)),
-        np.zeros((n_rec, 4)),
-    )
-
-    def call(step0: int, count: int, rec_index: int) -> int:
-        return kern.run(p, *st.arrays, st.work2, step0, count, every, rec_index, *rec, st.status)
+    rec = new_recording(n_steps // every, scene.bearing.n_balls)
 
     t0 = time.perf_counter()
-    kern.start(p, *st.arrays, st.status)
-    call(0, 0, 0)  # compiles (or loads from the on-disk cache) without advancing
+    # compile, or load from the on-disk cache, before anything runs
+    kern = prepare(kern, spec, {"start": (p, st), "run": (p, st, rec, 0, 0, every, 0)})
+    kern.start(p, st)
     compile_s = time.perf_counter() - t0
 
     chunk = max(every, (n_steps // 200) // every * every)
@@ -288,17 +235,17 @@ def simulate_dem(scene: Scene | None = None, *, progress: bool = False) -> Simul
     rec_index = 0
     while step < n_steps:
         count = min(chunk, n_steps - step)
-        rec_index = call(step, count, rec_index)
+        rec_index = kern.run(p, st, rec, step, count, every, rec_index)
         step += count
         if bar is not None:
             bar.update(count)
-        if st.status[0] != K.OK:
+        if st.status[0] != OK:
             break
     run_s = time.perf_counter() - t0
     run_cpu_s = time.process_time() - cpu0
     if bar is not None:
         bar.close()
-    if st.status[0] != K.OK:
+    if st.status[0] != OK:
         raise DivergenceError(_divergence_message(scene, st.status))
 
     balls, signals = _raw_tables(scene, rec_index, rec)
@@ -309,12 +256,12 @@ def simulate_dem(scene: Scene | None = None, *, progress: bool = False) -> Simul
         "us_per_step": 1e6 * run_s / max(n_steps, 1),
         "run_cpu_s": run_cpu_s,
         "cpu_us_per_step": 1e6 * run_cpu_s / max(n_steps, 1),
-        "kernel": flags.key,
+        "kernel": spec.key,
     }
     result = SimulationResult(scene, balls, signals, timings, limit)
-    if scene.effects.electrical:
+    if scene.outputs.electrical:
         t0 = time.perf_counter()
-        _add_electrical(result, rec[4][:rec_index], rec[1][:rec_index])
+        _add_electrical(result, rec.fcon[:rec_index], rec.pos[:rec_index])
         result.timings["electrical_s"] = time.perf_counter() - t0
         result.timings["electrical_us_per_instant"] = (
             1e6 * result.timings["electrical_s"] / max(rec_index, 1)

@@ -80,7 +80,7 @@ def stability_limit(scene) -> StabilityLimit:
     fs = 2.0 * (scene.operating.radial_load_n + q_pre) + fc + 1.0
     f_cage = cage_force_scale_n(scene, fs)
     k = [_tangent(coef[i], n, fs if i in (INNER, OUTER, BALL_BALL) else f_cage) for i in range(5)]
-    damp = 1.0 if e.damping else 0.0
+    damp = 1.0 if e.damping == "critical" else 0.0
 
     candidates = []
 
@@ -95,11 +95,11 @@ def stability_limit(scene) -> StabilityLimit:
 
     neighbours = (
         [(k[BALL_CAGE], props[BALL_CAGE].reduced_mass_kg)] * 2
-        if e.cage
+        if e.cage == "balls"
         else [(k[BALL_BALL], props[BALL_BALL].reduced_mass_kg)] * 2
     )
     race = [(k[INNER], mb), (k[OUTER], mb)]
-    friction = e.friction and b.friction_coefficient > 0.0
+    friction = e.friction == "coulomb" and b.friction_coefficient > 0.0
     if friction:
         # Mindlin stiffness eq. 7 at the same force (linear law: K_t = 2/3 K_n, eq. 5)
         kt = []
@@ -129,7 +129,7 @@ def stability_limit(scene) -> StabilityLimit:
             )
     else:
         body("ball (translation)", race + neighbours, mb)
-    if e.cage:
+    if e.cage == "balls":
         props_bc, props_w = props[BALL_CAGE], props[CAGE_WALL]
         body(
             "cage ball",

@@ -16,7 +16,8 @@ At each instant:
   :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` (Harris 2001, 7.2-7.3):
   each ball has its inner and outer contacts in series under the scene's contact law (Hertz,
   Harris or linear, with the DEM's coefficients), carries its centrifugal force
-  (``effects.centrifugal``) and, with ``effects.gravity``, the radial part of its weight; the
+  (``effects.centrifugal = "inertial"``) and, with ``effects.gravity = "standard"``, the
+  radial part of its weight; the
   ring carries F_r and its own weight; the clearance (or preload) is the scene's final one
   (seed eq. 14). The solver is that of the theory (:mod:`signatelec.physics.ring_equilibrium`,
   compiled, each instant started from the ones before), run to ``TIER_RTOL``: the whole steady
@@ -45,7 +46,7 @@ Its accuracy and cost against the DEM (mean resistance, ball-pass amplitude, lar
 CPU time) are measured by the accuracy-cost study: ``docs/accuracy_cost/accuracy_cost.md``, row
 ``quasistatic``.
 
-With ``effects.energy`` the tier fills ``elastic_j`` (raceway contacts) and ``kinetic_j`` (rigid
+With ``outputs.energy`` the tier fills ``elastic_j`` (raceway contacts) and ``kinetic_j`` (rigid
 kinematic motion of balls and cage balls); ``work_in_j`` and ``dissipated_j`` are NaN (the
 quasi-static state has no history).
 
@@ -141,8 +142,8 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingSo
         op.clearance_m,
         op.omega_rad_s,
         ((float(coef[INNER]), float(coef[OUTER])), float(n)),
-        centrifugal=e.centrifugal,
-        gravity=e.gravity,
+        centrifugal=e.centrifugal == "inertial",
+        gravity=e.gravity == "standard",
         rtol=TIER_RTOL,
         unit_xy=unit_xy,
     )
@@ -162,7 +163,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
     del progress
     t_start = time.perf_counter()
     scene = scene or Scene()
-    b, op, e = scene.bearing, scene.operating, scene.effects
+    b, op = scene.bearing, scene.operating
     z = b.n_balls
     t = steady_record_times_s(scene)
     n_rec = t.size
@@ -214,7 +215,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "loaded_balls": (eq.inner_force_n > 0.0).sum(axis=1).astype(np.int32),
         "max_ball_load_n": eq.inner_force_n.max(axis=1, initial=0.0),
     }
-    if e.energy:
+    if scene.outputs.energy:
         signals.update(_energy_columns(scene, eq, radius, omega_c, spin))
     timings = {
         "tier": "quasistatic",
@@ -226,7 +227,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "n_instants": int(n_rec),
         "us_per_instant": 1e6 * run_s / max(n_rec, 1),
     }
-    if e.electrical:
+    if scene.outputs.electrical:
         from signatelec.physics.electrical import bearing_electrics
 
         t0 = time.perf_counter()
@@ -257,5 +258,5 @@ def _energy_columns(scene: Scene, eq: RingSolution, radius, omega_c, spin) -> di
         "work_in_j": nan,
         "dissipated_j": nan.copy(),
         "elastic_j": elastic.sum(axis=1),
-        "kinetic_j": kinetic.sum(axis=1) + (cage if scene.effects.cage else 0.0),
+        "kinetic_j": kinetic.sum(axis=1) + (cage if scene.effects.cage == "balls" else 0.0),
     }

@@ -1,0 +1,125 @@
+"""Numba pieces of the DEM kernel that no kernel option changes: warm-started roots, the set-up
+schedule, scalar contact limits, checks.
+
+They are inlined into (or linked with) the specialised kernel of :mod:`.kernel`, whose cache key
+covers this file (:mod:`.build`). Arrays as in :mod:`.records`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+# No nnan/ninf: the divergence check relies on math.isfinite. The time loop and the functions it
+# calls run without numba's reference counting (_nrt=False in the kernel): they allocate
+# nothing, and the atomic increments and decrements of every array passed to forces() each step
+# cost 20 % of it.
+FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+#: Inlined helpers: compiled as part of their caller, whose cache holds them.
+inline = njit(inline="always", fastmath=FASTMATH, error_model="numpy")
+
+# Warm-started roots. Every contact keeps the inverse square root of its centre distance and the
+# inverse fourth root of its overlap in State.roots. A step changes a centre distance by a
+# relative 1e-9 to 1e-5, so a Householder correction of order 4 from the old value, with
+# r = 1 - x y^2 (1 - x y^4), is exact to below 1 ulp where |r| < 2^-13, and replaces a square root
+# and a division (the divider bounds this kernel). Overlaps change faster, so their guess is
+# extrapolated linearly from the two steps before; under 1 % of updates (first touches, the zero
+# cache) fall back to the roots computed directly (seed scene). tests/test_kernel_contacts.py
+# holds warm and cold equal.
+WARM = 2.0**-13
+
+
+@inline
+def rsqrt_warm(x, roots, k, slot):
+    """1 / sqrt(x), warm-started from roots[k, slot] and stored back there."""
+    y = roots[k, slot]
+    r = 1.0 - x * y * y
+    if abs(r) < WARM:
+        # (1 - r)^(-1/2) = 1 + r/2 + 3r^2/8 + 5r^3/16 + O(r^4)
+        y = y * (1.0 + r * (0.5 + r * (0.375 + r * 0.3125)))
+    else:
+        y = 1.0 / math.sqrt(x)
+    roots[k, slot] = y
+    return y
+
+
+@inline
+def rquart_warm(x, roots, k, slot):
+    """x^(-1/4), warm-started from roots[k, slot] and stored back there."""
+    y_old = roots[k, slot]
+    y = 2.0 * y_old - roots[k, slot + 10]
+    y2 = y * y
+    r = 1.0 - x * y2 * y2
+    if abs(r) < WARM and y > 0.0:
+        # (1 - r)^(-1/4) = 1 + r/4 + 5r^2/32 + 15r^3/128 + O(r^4)
+        y = y * (1.0 + r * (0.25 + r * (0.15625 + r * 0.1171875)))
+    else:
+        y = 1.0 / math.sqrt(math.sqrt(x))
+    roots[k, slot + 10] = y_old
+    roots[k, slot] = y
+    return y
+
+
+@inline
+def schedule(t, p):
+    """Outer race radius and its rate, applied F_r, inner-ring speed at time t (seed 2.2.1-2.2.2).
+
+    Phase ends t1 (clearance), t2 (load), t3 (spin-up); a zero-length phase is a step.
+    Ramps follow (1 - cos(pi s)) / 2, the sinusoidal profile of the seed.
+    """
+    t1, t2, t3 = p.clearance_end_s, p.load_end_s, p.spin_up_end_s
+    r_out = p.outer_race_radius_m + p.clearance_m
+    r_rate = 0.0
+    if t < t1:
+        s = t / t1
+        r_out = p.outer_race_radius_m + p.clearance_m * 0.5 * (1.0 - math.cos(math.pi * s))
+        r_rate = p.clearance_m * 0.5 * math.pi / t1 * math.sin(math.pi * s)
+    fr = p.radial_load_n
+    if t < t1:
+        fr = 0.0
+    elif t < t2:
+        fr = p.radial_load_n * 0.5 * (1.0 - math.cos(math.pi * (t - t1) / (t2 - t1)))
+    omega = p.omega_rad_s
+    if t < t2:
+        omega = 0.0
+    elif t < t3:
+        omega = p.omega_rad_s * 0.5 * (1.0 - math.cos(math.pi * (t - t2) / (t3 - t2)))
+    return r_out, r_rate, fr, omega
+
+
+# Scalar forms of contact.damped_normal_force and contact.coulomb_limit: numpy's maximum, minimum
+# and sign carry NaN handling the kernel does not need (tests/test_kernel_contacts.py holds them
+# equal to the contact module).
+@inline
+def damped_normal_force(elastic_force_n, damping_n_s_m, closing_speed_m_s):
+    return max(elastic_force_n + damping_n_s_m * closing_speed_m_s, 0.0)
+
+
+@inline
+def coulomb_limit(tangential_force_n, normal_force_n, friction_coefficient):
+    limit = friction_coefficient * max(normal_force_n, 0.0)
+    return min(max(tangential_force_n, -limit), limit)
+
+
+@njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
+def kinetic_energy(p, s):
+    """Kinetic energy of every body of state ``s``, J."""
+    z = s.spin.shape[0]
+    vel = s.vel
+    e = 0.5 * p.inner_ring_mass_kg * (vel[2 * z, 0] ** 2 + vel[2 * z, 1] ** 2)
+    for k in range(z):
+        e += 0.5 * p.ball_mass_kg * (vel[k, 0] ** 2 + vel[k, 1] ** 2)
+        e += 0.5 * p.ball_inertia_kg_m2 * s.spin[k] ** 2
+        e += 0.5 * p.cage_ball_mass_kg * (vel[z + k, 0] ** 2 + vel[z + k, 1] ** 2)
+    return e
+
+
+# No fastmath: under its flags LLVM folds math.isfinite(x) to True.
+@njit(error_model="numpy", _nrt=False)
+def first_non_finite(pos, vel):
+    """Index of the first body whose position or velocity is not finite, else -1."""
+    for i in range(pos.shape[0]):
+        if not math.isfinite(pos[i, 0] + pos[i, 1] + vel[i, 0] + vel[i, 1]):
+            return i
+    return -1
