@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 from functools import cache
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -274,6 +275,28 @@ def test_static_bearing_stays_at_rest(run_scene):
     assert np.all(steady.inner_omega_rad_s == 0.0)
     # no drive: the cage creeps at most at rounding level (< 1e-6 of the seed's 198 rad/s)
     assert steady.cage_speed_rad_s.abs().max() < 1e-4
+
+
+def test_frictionless_bearing_transmits_no_torque(run_scene):
+    """The minimal kernel (no cage, no friction, no gravity). Without friction no tangential
+    force acts: the inner ring drives nothing (zero drive torque), no ball is ever torqued, so
+    none spins, and the balls keep their angles while the energy balance holds as for any hard
+    case."""
+    scene = make_scene(
+        effects={"cage": "none", "friction": "none", "gravity": "none"}, outputs=ENERGY
+    )
+    result = run_scene(scene)
+    balls, signals = result.balls, result.signals
+    # before the load the ring sits centred (epsilon undefined): the balance over the steady phase
+    assert_sound(
+        SimpleNamespace(scene=scene, signals=result.steady(), balls=result.steady("balls"))
+    )
+    assert (balls.inner_tangential_n == 0.0).all() and (balls.outer_tangential_n == 0.0).all()
+    assert (signals.drive_torque_n_m == 0.0).all()
+    assert (balls.spin_rad_s == 0.0).all()
+    assert signals.inner_omega_rad_s.iloc[-1] == scene.operating.omega_rad_s
+    # no tangential force, so no orbit: the cage (mean ball orbit) stays at rest to round-off
+    assert signals.cage_speed_rad_s.abs().max() < 1e-6 * scene.operating.omega_rad_s
 
 
 @pytest.mark.slow

@@ -124,7 +124,8 @@ def test_tier_equilibrium_satisfies_harris_equations(changes):
     - each ball touching both races balances its body force, Q_o - Q_i = m_b omega_c^2 r_p +
       m_b g cos psi (Harris 7.2 and chapter 10), and a ball on one race carries its body force;
     - the deflections of a ball on both races add up to the approach, d_i + d_o = s . u -
-      Delta_r with d = (Q / c)^(1/n) (seed eq. 14 radii, eqs 3 and 8).
+      Delta_r with d = (Q / c)^(1/n) (seed eq. 14 radii, eqs 3 and 8), and a ball without
+      inner force does not reach the inner race (approach <= its outer deflection).
     """
     scene = Scene().with_overrides(duration_s=0.012, **changes)
     b, op, e = scene.bearing, scene.operating, scene.effects
@@ -157,6 +158,11 @@ def test_tier_equilibrium_satisfies_harris_equations(changes):
     deflection = (eq.inner_force_n / coef[0]) ** (1 / n) + (eq.outer_force_n / coef[1]) ** (1 / n)
     approach = np.einsum("tzk,tk->tz", u, eq.shift_xy_m) - op.clearance_m
     np.testing.assert_allclose(deflection[both], approach[both], rtol=APPROACH_RTOL)
+    # a ball without inner force is not squeezed: its approach leaves no inner-race overlap
+    free = eq.inner_force_n == 0.0
+    outer_alone = (eq.outer_force_n / coef[1]) ** (1 / n)
+    assert free.any()
+    assert np.all(approach[free] - outer_alone[free] <= APPROACH_RTOL * np.abs(approach).max())
 
 
 # --- tables, kinematics, DEM agreement and speed -------------------------------------------------
