@@ -43,17 +43,29 @@ EXIT_TERMINATED = 128 + signal.SIGTERM
 
 EXIT_CODES = (
     (EXIT_OK, "complete"),
-    (1, "unexpected error (a bug; a traceback follows); traces generate wrote are kept"),
+    (1, "unexpected error (a bug); the traces generate wrote are kept"),
     (EXIT_INPUT, "refused: bad input or output location; nothing written"),
     (EXIT_DIVERGED, "the simulation diverged; nothing written"),
     (
         EXIT_INCOMPLETE,
         "incomplete (disk full, I/O error, a worker or the cluster lost): simulate and figures "
-        "wrote nothing; generate kept the traces written: rerun the same command to resume",
+        "wrote nothing, generate kept the traces written; rerun the same command to resume",
     ),
-    (EXIT_INTERRUPTED, "interrupted (Ctrl-C); as 75: nothing written, or rerun to resume"),
-    (EXIT_TERMINATED, "terminated (SIGTERM); as 130"),
+    (EXIT_INTERRUPTED, "interrupted (Ctrl-C); as 75"),
+    (EXIT_TERMINATED, "terminated (SIGTERM); as 75"),
 )
+
+
+def _exit_code_table() -> str:
+    """The exit codes as ``--help`` shows them (``\b``: click keeps the lines as they are)."""
+    import textwrap
+
+    lines = ["\b", "Exit codes:"]
+    for code, text in EXIT_CODES:
+        wrapped = textwrap.wrap(text, 66)
+        lines.append(f"  {code:>3}  {wrapped[0]}")
+        lines.extend(f"       {line}" for line in wrapped[1:])
+    return "\n".join(lines)
 
 
 class InputError(click.ClickException):
@@ -133,10 +145,7 @@ def claim_output(out: str, command: str, **kwargs) -> Path:
         raise InputError(str(exc)) from None
 
 
-@click.group(
-    cls=_Group,
-    epilog="Exit codes: " + "; ".join(f"{code} {text}" for code, text in EXIT_CODES) + ".",
-)
+@click.group(cls=_Group, epilog=_exit_code_table())
 @click.version_option(package_name="signatelec")
 def cli() -> None:
     """signatelec: DEM ball-bearing simulator and electrical resistance signatures."""
