@@ -385,6 +385,7 @@ def generate(spec_file, out, workers, scheduler, quiet):
     """
     from signatelec.data import DatasetDirError, SpecError, load_spec
     from signatelec.data import generate as run_generate
+    from signatelec.data.schedule import kept, stop_reason
     from signatelec.data.store import LOCK_FILE, is_dataset
 
     try:
@@ -407,41 +408,13 @@ def generate(spec_file, out, workers, scheduler, quiet):
     except (SpecError, DatasetDirError) as exc:  # refused before any trace was written
         raise InputError(str(exc)) from None
     except KeyboardInterrupt as exc:
-        raise Stopped(f"{_stop_word(exc)}; {_kept(out, spec)}", _stop_code(exc)) from None
+        raise Stopped(f"{_stop_word(exc)}; {kept(out, spec)}", _stop_code(exc)) from None
     except Exception as exc:
-        code, reason = _generation_failure(exc)
-        raise Stopped(f"generation stopped ({reason}); {_kept(out, spec)}", code) from None
+        resumable, reason = stop_reason(exc)
+        code = EXIT_INCOMPLETE if resumable else 1
+        raise Stopped(f"generation stopped ({reason}); {kept(out, spec)}", code) from None
     if not quiet:
         click.echo(summary_.describe())
-
-
-def _kept(out: str, spec) -> str:
-    """What a stopped ``generate`` leaves: the traces written, and how to go on."""
-    from signatelec.data import DatasetDirError, done_trace_ids
-
-    if not Path(out).is_dir():
-        return "nothing written"
-    try:
-        done = len(done_trace_ids(out))
-    except (OSError, DatasetDirError):
-        done = 0
-    return (
-        f"{done} of {spec.n_traces} traces are written and kept: rerun the same command to resume"
-    )
-
-
-def _generation_failure(exc: Exception) -> tuple[int, str]:
-    """Exit code and reason of a ``generate`` job that stopped: the disk, the file system, a
-    worker process or the cluster (a rerun resumes) or anything else (a bug)."""
-    from concurrent.futures import BrokenExecutor
-
-    if isinstance(exc, OSError):
-        return EXIT_INCOMPLETE, exc.strerror or str(exc) or type(exc).__name__
-    if isinstance(exc, BrokenExecutor):
-        return EXIT_INCOMPLETE, "a worker process died"
-    if type(exc).__name__ in ("KilledWorker", "CancelledError", "CommClosedError"):
-        return EXIT_INCOMPLETE, f"the cluster failed: {type(exc).__name__}: {exc}"
-    return 1, f"unexpected {type(exc).__name__}: {exc}"
 
 
 def check_writable_file(out: str, option: str = "--out", suffixes=None) -> None:

@@ -153,6 +153,9 @@ def test_simulate_replaces_its_previous_output_as_a_whole(tmp_path):
     assert cli(*QUICK, "--radial-load", "2910", "--out", str(out)).returncode == 0
     first = snapshot(out)
     assert json.loads((out / io.MARKER_FILE).read_text())["command"] == "simulate"
+    umask = os.umask(0)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o777 & ~umask  # a directory as any other, not 0700
     (out / "signals.parquet").unlink()
     (out / "signals.parquet").mkdir()  # damage inside a previous output: replaced with it
     assert cli(*QUICK, "--radial-load", "5820", "--out", str(out)).returncode == 0

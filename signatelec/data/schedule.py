@@ -289,3 +289,30 @@ def _generate_into(spec, out, workers, client, progress, on_trace, log, t_start)
         cores=cores,
         cpu_s=cpu,
     )
+
+
+def kept(out: str | Path, spec: Spec) -> str:
+    """What a stopped job leaves in ``out``: the traces written, and how to go on."""
+    if not Path(out).is_dir():
+        return "nothing written"
+    try:
+        done = len(done_trace_ids(out))
+    except OSError:
+        done = 0
+    return (
+        f"{done} of {spec.n_traces} traces are written and kept: rerun the same command to resume"
+    )
+
+
+def stop_reason(exc: Exception) -> tuple[bool, str]:
+    """Whether a rerun can finish a job stopped by ``exc`` (the disk, the file system, a worker
+    process, the cluster; not a bug), and the reason in a few words."""
+    from concurrent.futures import BrokenExecutor
+
+    if isinstance(exc, OSError):
+        return True, exc.strerror or str(exc) or type(exc).__name__
+    if isinstance(exc, BrokenExecutor):
+        return True, "a worker process died"
+    if type(exc).__name__ in ("KilledWorker", "CancelledError", "CommClosedError"):
+        return True, f"the cluster failed: {type(exc).__name__}: {exc}"
+    return False, f"unexpected {type(exc).__name__}: {exc}"
