@@ -13,6 +13,7 @@ import errno
 import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -168,6 +169,21 @@ def test_simulate_replaces_its_previous_output_as_a_whole(tmp_path):
     # an output of a version before the marker (the two tables only) is recognised too
     (out / io.MARKER_FILE).unlink()
     assert cli(*QUICK, "--out", str(out)).returncode == 0
+
+
+def test_figures_replace_figures_of_an_older_version(tmp_path):
+    out = tmp_path / "figures"
+    shutil.copytree(REPO / "docs" / "figures", out)  # the PNGs only, no marker
+    proc = cli("figures", "--quick", "--quiet", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        io.MARKER_FILE,
+        "figure_6_9.png",
+        "figure_7_10.png",
+        "figure_8_11.png",
+    ]
+    assert io.read_marker(out)["command"] == "figures"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["figures"]
 
 
 def test_a_failed_write_keeps_the_previous_output(tmp_path, monkeypatch, capsys):
