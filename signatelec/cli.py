@@ -348,7 +348,7 @@ def accuracy_cost(out, quick, fresh, quiet):
     from signatelec.studies.accuracy_cost import run_study
 
     own = ("accuracy_cost.parquet", "accuracy_cost.md", "accuracy_cost.png", ".cache")
-    claim_output(out, "study accuracy-cost", previous=lambda d: holds_only(d, own))
+    claim_output(out, "study accuracy-cost", previous=lambda d: holds_only(d, own, False))
     try:
         run_study(
             out, quick=quick, progress=not quiet, fresh=fresh, log=None if quiet else click.echo
@@ -396,7 +396,8 @@ def generate(spec_file, out, workers, scheduler, quiet):
         raise InputError(f"--workers {workers}: must be >= 0 (0: run in this process)")
     if workers is not None and scheduler:
         raise InputError(f"--workers {workers}: give --workers or --scheduler, not both")
-    claim_output(out, "generate", previous=is_dataset, ignore=(LOCK_FILE,))
+    # below DIR: regime=<regime>/<temporary name of a part file>
+    claim_output(out, "generate", previous=is_dataset, ignore=(LOCK_FILE,), inner_bytes=100)
 
     def log(line: str) -> None:
         click.echo(f"signatelec: warning: {line}", err=True)
@@ -469,6 +470,11 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
 
     if out is not None:
         check_writable_file(out, suffixes=(".json", ".parquet"))
+    from signatelec.io import TRACE_MAX_BYTES, input_size_problem
+
+    problem = input_size_problem(trace_file, TRACE_MAX_BYTES)
+    if problem:
+        raise InputError(f"trace {trace_file!r}: {problem}")
     try:
         t, r = read_trace(trace_file, time_column, resistance_column)
         trace = prepare_trace(t, r, omega_rad_s, source=f"trace {trace_file!r}")

@@ -180,6 +180,27 @@ def read_limited(path: str | Path, limit_bytes: int) -> bytes:
     return data
 
 
+#: Largest trace file read: 1e7 samples of CSV are ~0.4 GB.
+TRACE_MAX_BYTES = 1024**3
+
+
+def input_size_problem(path: str | Path, limit_bytes: int) -> str | None:
+    """Why an input file may not be read whole (None: it may, or it cannot be opened at all and
+    its reader says why): larger than ``limit_bytes``, or a device or pipe, which has no size."""
+    import stat
+
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    if not stat.S_ISREG(info.st_mode) and not stat.S_ISDIR(info.st_mode):
+        return "is not a regular file"
+    if info.st_size > limit_bytes:
+        size, limit = info.st_size / 1024**3, limit_bytes / 1024**3
+        return f"is {size:.3g} GiB, larger than the {limit:.3g} GiB allowed"
+    return None
+
+
 # --- output locations ---------------------------------------------------------------------------
 
 
@@ -258,9 +279,9 @@ def write_marker(directory: str | Path, command: str) -> None:
     write_json_atomic(Path(directory) / MARKER_FILE, {"command": command, "version": __version__})
 
 
-def holds_only(directory: Path, names: Iterable[str]) -> bool:
-    """Whether every entry of ``directory`` is one of ``names`` (a Parquet file among them must
-    carry signatelec metadata): an output written before the marker existed."""
+def holds_only(directory: Path, names: Iterable[str], parquet_metadata: bool = True) -> bool:
+    """Whether every entry of ``directory`` is one of ``names`` (with ``parquet_metadata``, a
+    Parquet file among them must carry signatelec's): an output written before the marker."""
     import pyarrow as pa
 
     names = set(names)
@@ -268,7 +289,7 @@ def holds_only(directory: Path, names: Iterable[str]) -> bool:
     if not entries or any(p.name not in names for p in entries):
         return False
     for p in entries:
-        if p.suffix == ".parquet":
+        if parquet_metadata and p.suffix == ".parquet":
             try:
                 if not p.is_file() or not read_metadata(p):
                     return False
@@ -398,6 +419,8 @@ def replace_directory(
     when the files cannot be written (disk full, I/O error).
     """
     out = Path(out)
+    if out.is_symlink():  # replace what the link points to, not the link
+        out = out.resolve()
     parent = out.parent if str(out.parent) else Path(".")
     try:
         parent.mkdir(parents=True, exist_ok=True)

@@ -459,6 +459,16 @@ def test_scene_files_are_read_with_a_limit(tmp_path, path, expected):
     assert_one_line(proc, 2, f"spec {spec!r}", expected)
 
 
+@pytest.mark.parametrize(
+    ("name", "expected"), [("/dev/zero", "is not a regular file"), ("huge.csv", "larger than")]
+)
+def test_trace_files_are_read_with_a_limit(tmp_path, name, expected):
+    with open(tmp_path / "huge.csv", "wb") as fh:
+        fh.truncate(2 * 1024**3)  # sparse
+    proc = cli("estimate", name, "--omega", "500", cwd=tmp_path)
+    assert_one_line(proc, 2, f"trace {name!r}", expected)
+
+
 def test_the_divergence_advice_is_one_that_helps(tmp_path):
     """A large clearance at 1000 rad/s after a 5 ms spin-up throws a cage ball out: a quarter of
     the time step diverges at the same instant, the advised longer spin-up runs."""

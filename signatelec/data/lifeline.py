@@ -115,8 +115,11 @@ def _stop_forkserver(pool) -> None:
 
     pid = getattr(getattr(forkserver, "_forkserver", None), "_forkserver_pid", None)
     if pid:
-        with contextlib.suppress(OSError):
+        with contextlib.suppress(OSError, AttributeError):
             os.kill(pid, signal.SIGKILL)
+            # wait until it has ended, without reaping it: multiprocessing reaps it and starts
+            # a new one when a pool next needs it
+            os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT)
 
 
 def stop_pool(pool) -> None:

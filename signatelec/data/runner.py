@@ -86,12 +86,12 @@ def trace_scene(ctx: TraceContext, scene: Scene) -> tuple[Scene, float, int]:
     return scene, t0, n
 
 
-def check_budget(spec: Spec, *, concurrent: int = 1) -> None:
+def check_budget(spec: Spec, *, concurrent: int | None = 1) -> None:
     """Refuse (:class:`SpecError`) a spec whose traces would exceed the run limits of
-    :mod:`signatelec.engines.budget` (steps, recorded instants) or, ``concurrent`` at once, the
-    machine's available memory. The base scene's trace stands for all: every trace shares its
-    window and record rate (the time step of the fast and balanced presets varies a little with
-    the operating point)."""
+    :mod:`signatelec.engines.budget` (steps, recorded instants) or, ``concurrent`` at once, this
+    machine's available memory (None: the traces run elsewhere, on a cluster). The base
+    scene's trace stands for all: every trace shares its window and record rate (the time step
+    of the fast and balanced presets varies a little with the operating point)."""
     from signatelec.engines import budget
 
     ctx = spec.context
@@ -119,7 +119,7 @@ def check_budget(spec: Spec, *, concurrent: int = 1) -> None:
             f"instants, more than the {budget.MAX_RECORDED_INSTANTS:.0e} a run may record; "
             "lower measurement.sample_rate_hz or oversample, or shorten dataset.duration_s",
         )
-    available = budget.available_memory_bytes()
+    available = budget.available_memory_bytes() if concurrent else None
     if available is not None and need.memory_bytes * concurrent > available:
         at_once = f" x {concurrent} workers at once" if concurrent > 1 else ""
         check.fail(

@@ -205,8 +205,8 @@ def generate(
     if scheduler is None:
         workers = default_workers() if workers is None else workers
         check_budget(spec, concurrent=max(workers, 1))
-    else:
-        check_budget(spec)
+    else:  # the cluster's workers have their own memory
+        check_budget(spec, concurrent=None)
     client = None
     if scheduler:  # before anything is written: a cluster that cannot be reached is an input
         from distributed import Client
