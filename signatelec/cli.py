@@ -348,7 +348,8 @@ def accuracy_cost(out, quick, fresh, quiet):
     from signatelec.studies.accuracy_cost import run_study
 
     own = ("accuracy_cost.parquet", "accuracy_cost.md", "accuracy_cost.png", ".cache")
-    claim_output(out, "study accuracy-cost", previous=lambda d: holds_only(d, own, False))
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, "study accuracy-cost", previous=previous, replaced=False)
     try:
         run_study(
             out, quick=quick, progress=not quiet, fresh=fresh, log=None if quiet else click.echo
@@ -397,7 +398,9 @@ def generate(spec_file, out, workers, scheduler, quiet):
     if workers is not None and scheduler:
         raise InputError(f"--workers {workers}: give --workers or --scheduler, not both")
     # below DIR: regime=<regime>/<temporary name of a part file>
-    claim_output(out, "generate", previous=is_dataset, ignore=(LOCK_FILE,), inner_bytes=100)
+    claim_output(
+        out, "generate", previous=is_dataset, ignore=(LOCK_FILE,), inner_bytes=100, replaced=False
+    )
 
     def log(line: str) -> None:
         click.echo(f"signatelec: warning: {line}", err=True)

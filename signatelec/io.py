@@ -85,7 +85,8 @@ def temporary_name() -> str:
 
 
 def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists on this host (a zombie counts until it is reaped)."""
+    """Whether a process ``pid`` runs on this host (a zombie, ended but not yet reaped by its
+    parent, does not)."""
     if pid <= 0:
         return False
     try:
@@ -96,7 +97,11 @@ def pid_alive(pid: int) -> bool:
         return True
     except OverflowError:
         return False
-    return True
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[0] not in (b"Z", b"X")
+    except (OSError, IndexError):
+        return True  # no /proc: the signal check is all there is
 
 
 def stale_owner(name: str, legacy: re.Pattern | None = None) -> int | None:
@@ -334,19 +339,29 @@ def check_output_dir(
     previous: Callable[[Path], bool] | None = None,
     ignore: Iterable[str] = (),
     inner_bytes: int = 64,
+    replaced: bool = True,
 ) -> Path:
     """Refuse, before any work, an output location ``command`` may not write (see the module
     docstring): raises :class:`OutputError` with one line naming the option and the reason.
 
     ``previous(directory)`` recognises an output of ``command`` without a marker (written by an
-    older version); ``ignore``: names the command itself keeps in its directory (a lock file).
-    The directory that will be written (``out`` or its nearest existing ancestor) must accept a
-    new file: it is probed with a temporary file, removed at once.
+    older version); ``ignore``: names the command itself keeps in its directory (a lock file);
+    ``replaced``: the command replaces the directory as a whole (:func:`replace_directory`), so
+    it may not be the current directory or one of its ancestors, and its parent is written;
+    otherwise the command writes inside it. The directory written must accept a new entry: it is
+    probed with a temporary one, removed at once.
     """
     if not out.strip():
         raise OutputError(f"{option} {out!r}: must name a directory")
     absolute = check_path_names(out, option, inner_bytes)
     path = Path(out)
+    if replaced:
+        here = Path.cwd()
+        if absolute == absolute.parent or absolute == here or absolute in here.parents:
+            raise OutputError(
+                f"{option} {out!r}: is the current directory or holds it; the output replaces "
+                "the directory as a whole: name a directory inside it"
+            )
     if path.exists() and not path.is_dir():
         raise OutputError(f"{option} {out!r}: exists and is not a directory; choose a directory")
     if path.is_dir():
@@ -355,7 +370,7 @@ def check_output_dir(
             why = None
         if why is not None:
             raise OutputError(f"{option} {out!r}: {why}")
-    probe = _nearest_existing(absolute.parent)
+    probe = _nearest_existing(absolute if not replaced else absolute.parent)
     if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
         raise OutputError(f"{option} {out!r}: {str(probe)!r} is not a writable directory")
     remove_stale_temporaries(probe)
@@ -418,10 +433,12 @@ def replace_directory(
     Raises :class:`OutputError` when ``out`` may not be replaced and :class:`OutputIncomplete`
     when the files cannot be written (disk full, I/O error).
     """
-    out = Path(out)
+    out = Path(os.path.abspath(out))
     if out.is_symlink():  # replace what the link points to, not the link
         out = out.resolve()
-    parent = out.parent if str(out.parent) else Path(".")
+    parent = out.parent
+    existing = _nearest_existing(parent)  # the first directory made here is removed on failure
+    created = None if existing == parent else existing / parent.relative_to(existing).parts[0]
     try:
         parent.mkdir(parents=True, exist_ok=True)
         remove_stale_temporaries(parent)
@@ -465,6 +482,12 @@ def replace_directory(
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+        if created is not None and not out.exists():
+            with contextlib.suppress(OSError):  # only directories left empty
+                for directory in (parent, *parent.parents):
+                    os.rmdir(directory)
+                    if directory == created:
+                        break
 
 
 def write_result(result, out_dir: str | Path) -> None:

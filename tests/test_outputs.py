@@ -208,6 +208,17 @@ def test_a_failed_write_keeps_the_previous_output(tmp_path, monkeypatch, capsys)
     assert "No space left on device" in err[0] and "nothing was written" in err[0]
     assert snapshot(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    # a new output under new directories: those are removed with the temporary
+    code = run_main([*QUICK, "--out", str(tmp_path / "new" / "deeper" / "run")])
+    assert code == 75 and sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_the_current_directory_is_not_replaced(tmp_path):
+    (tmp_path / "inside").mkdir()
+    for out in (".", str(tmp_path), ".."):
+        proc = cli(*QUICK, "--out", out, cwd=tmp_path / "inside")
+        assert_one_line(proc, 2, f"--out {out!r}", "is the current directory or holds it")
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["inside"]
 
 
 def test_the_exchange_without_renameat2_gives_the_same_result(tmp_path, monkeypatch):

@@ -15,6 +15,7 @@ generate it again.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
@@ -280,6 +281,8 @@ def prepare_output(spec: Spec, out: str | Path) -> Path:
             for name in (io.MARKER_FILE, SPEC_FILE):
                 with contextlib.suppress(OSError):
                     (out / name).unlink()
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO):  # not refused: rerun later
+            raise
         raise DatasetDirError(
             f"{where}: cannot write there ({exc.strerror or exc}); nothing was written"
         ) from None
