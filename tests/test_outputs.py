@@ -300,9 +300,21 @@ def test_a_full_disk_during_generate_exits_75_and_the_rerun_completes(small_tmpf
         tmp_path,
         SMALL_SPEC.replace("values = [0.1, 0.2]}", "min = 0.1, max = 0.3, levels = 40}"),
     )
+    ds = small_tmpfs / "ds"
+    full = small_tmpfs / "full"
+    fd = os.open(full, os.O_WRONLY | os.O_CREAT)
+    try:
+        with pytest.raises(OSError, match="No space left"):
+            for _ in range(5000):
+                os.write(fd, b"\0" * 1024)
+    finally:
+        os.close(fd)
+    proc = cli("generate", str(spec), "--out", str(ds), "--workers", "0", "--quiet")
+    assert_one_line(proc, 75, "No space left on device", "nothing written")
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ["full"]
+    full.unlink()
     filler = small_tmpfs / "filler"
     filler.write_bytes(b"\0" * 3_900_000)  # leaves room for the spec and a few traces
-    ds = small_tmpfs / "ds"
     proc = cli("generate", str(spec), "--out", str(ds), "--workers", "0", "--quiet")
     line = assert_one_line(proc, 75, "No space left on device", "rerun the same command")
     written = len(list(ds.glob("regime=*/trace-*.parquet")))
