@@ -1,4 +1,4 @@
-"""Outputs as a contract, limits before work, processes that end together.
+"""Outputs as a contract and limits before work (processes: tests/test_processes.py).
 
 Every command runs as a user runs it (a subprocess; in-process only where a failure is injected)
 and must end with the documented exit code (0 complete, 2 refused and nothing written, 3
@@ -10,21 +10,27 @@ Scenes are tiny (the quasi-static tier where the DEM is not the point).
 from __future__ import annotations
 
 import errno
-import hashlib
 import json
 import os
 import shutil
-import signal
 import subprocess
-import sys
-import textwrap
 import time
 from pathlib import Path
 
 import pytest
+from cli_run import (
+    QUICK,
+    assert_one_line,
+    cli,
+    dead_pid,
+    run_main,
+    snapshot,
+    stale_name,
+    write_spec,
+)
 
 from signatelec import io
-from signatelec.cli import EXIT_CODES, main
+from signatelec.cli import EXIT_CODES
 from signatelec.data import read_dataset
 from signatelec.engines.budget import (
     MAX_STEPS,
@@ -33,75 +39,6 @@ from signatelec.engines.budget import (
 )
 
 REPO = Path(__file__).resolve().parents[1]
-QUICK = ("simulate", "--fidelity", "quasistatic", "--quiet")
-
-
-def cli(*args: str, cwd: Path | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-c", "from signatelec.cli import main; main()", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        cwd=cwd,
-    )
-
-
-def start(*args: str) -> subprocess.Popen:
-    """The command in a session of its own (its workers and forkserver join that session)."""
-    return subprocess.Popen(
-        [sys.executable, "-c", "from signatelec.cli import main; main()", *args],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-
-
-def assert_one_line(proc, code: int, *fragments: str) -> str:
-    """Exit ``code``, one line on stderr holding ``fragments``, no traceback; the line."""
-    err = proc.stderr.splitlines()
-    assert proc.returncode == code, proc.stderr
-    assert len(err) == 1, proc.stderr
-    assert err[0].startswith("signatelec: ") and "Traceback" not in proc.stderr
-    for fragment in fragments:
-        assert fragment in err[0], (fragment, err[0])
-    return err[0]
-
-
-def snapshot(directory: Path) -> dict[str, str]:
-    """Every entry below ``directory``: a file's content hash, or "dir"."""
-    entries = {}
-    for p in sorted(directory.rglob("*")):
-        rel = str(p.relative_to(directory))
-        entries[rel] = "dir" if p.is_dir() else hashlib.sha1(p.read_bytes()).hexdigest()
-    return entries
-
-
-def run_main(argv: list[str]) -> int:
-    """``signatelec.cli.main`` in this process (where a failure is injected): the exit code."""
-    try:
-        main(argv)
-    except SystemExit as exc:
-        return exc.code
-    return 0
-
-
-def dead_pid() -> int:
-    """The pid of a process that has ended (and been reaped)."""
-    proc = subprocess.Popen([sys.executable, "-c", "pass"])
-    proc.wait()
-    return proc.pid
-
-
-def stale_name(pid: int) -> str:
-    """A temporary name as a process ``pid`` of this host would have made it."""
-    return io.temporary_name().replace(f"-{os.getpid()}-", f"-{pid}-")
-
-
-def write_spec(directory: Path, text: str, name: str = "spec.toml") -> Path:
-    path = directory / name
-    path.write_text(textwrap.dedent(text))
-    return path
 
 
 #: Four quasi-static traces: milliseconds each.
@@ -508,122 +445,6 @@ def test_the_divergence_advice_is_one_that_helps(tmp_path):
     scene = write_spec(tmp_path, "[procedure]\nspin_up_time_s = 0.02\n")
     proc = cli("simulate", "--scene", str(scene), *args, "--duration", "0.025", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
-
-
-# --- processes that end together -----------------------------------------------------------
-
-#: 40 DEM traces of 4 ms: long enough to be stopped part-way.
-PROCESS_SPEC = """
-[dataset]
-seed = 11
-fidelity = "dem"
-duration_s = 0.004
-settle_s = 0.0
-[[design]]
-kind = "random"
-n_traces = 40
-factors.radial_load_fraction = {min = 0.1, max = 0.3}
-factors.clearance_m = {min = -5e-6, max = 5e-6}
-"""
-
-
-def session_processes(session: int) -> list[int]:
-    """Live (not zombie) processes of a session."""
-    pids = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            stat = Path(f"/proc/{entry}/stat").read_text()
-        except OSError:
-            continue
-        state, _, _, sid = stat.rsplit(")", 1)[1].split()[:4]
-        if int(sid) == session and state not in ("Z", "X"):
-            pids.append(int(entry))
-    return pids
-
-
-def wait_for(condition, timeout_s: float, proc=None) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert proc is None or proc.poll() is None, proc.stderr.read()
-        assert time.monotonic() < deadline, "timed out"
-        time.sleep(0.02)
-
-
-needs_proc = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="Linux /proc")
-
-
-@needs_proc
-def test_workers_end_with_a_killed_job_and_the_rerun_completes(tmp_path):
-    spec = write_spec(tmp_path, PROCESS_SPEC)
-    ds = tmp_path / "ds"
-    proc = start("generate", str(spec), "--out", str(ds), "--workers", "2", "--quiet")
-    try:
-        wait_for(lambda: len(list(ds.glob("regime=*/trace-*.parquet"))) >= 2, 300, proc)
-        assert len(session_processes(proc.pid)) >= 4  # job, forkserver, two workers
-        proc.kill()
-        proc.wait()
-        wait_for(lambda: not session_processes(proc.pid), 5.0)  # not the minute of work left
-    finally:
-        for pid in session_processes(proc.pid):
-            os.kill(pid, signal.SIGKILL)
-        proc.stderr.close()
-    rerun = cli("generate", str(spec), "--out", str(ds), "--workers", "2", timeout=600)
-    assert rerun.returncode == 0, rerun.stderr
-    assert sorted(read_dataset(ds).trace_id) == list(range(40))
-    assert not [p for p in ds.rglob("*") if p.name.endswith(".tmp")]
-
-
-@needs_proc
-@pytest.mark.parametrize(
-    ("when", "sig", "code"),
-    [
-        ("warm-up", signal.SIGINT, 130),
-        ("traces", signal.SIGINT, 130),
-        ("traces", signal.SIGTERM, 143),
-    ],
-)
-def test_an_interrupt_stops_every_process_with_one_line(tmp_path, when, sig, code):
-    spec = write_spec(tmp_path, PROCESS_SPEC)
-    ds = tmp_path / "ds"
-    proc = start("generate", str(spec), "--out", str(ds), "--workers", "2", "--quiet")
-    try:
-        if when == "warm-up":  # the spec is written just before the kernels are warmed up
-            wait_for(lambda: (ds / "_spec.json").exists(), 300, proc)
-        else:
-            wait_for(lambda: len(list(ds.glob("regime=*/trace-*.parquet"))) >= 2, 300, proc)
-        # Ctrl-C reaches the whole process group; SIGTERM is sent to the job alone
-        (os.killpg if sig == signal.SIGINT else os.kill)(proc.pid, sig)
-        _, err = proc.communicate(timeout=30)
-        wait_for(lambda: not session_processes(proc.pid), 5.0)
-    finally:
-        for pid in session_processes(proc.pid):
-            os.kill(pid, signal.SIGKILL)
-    assert proc.returncode == code, err
-    lines = err.splitlines()
-    assert len(lines) == 1 and "Traceback" not in err, err
-    assert "rerun the same command to resume" in lines[0]
-    written = len(list(ds.glob("regime=*/trace-*.parquet")))
-    assert f"{written} of 40 traces are written and kept" in lines[0]
-    assert not [p for p in ds.rglob("*") if p.name.endswith(".tmp")]
-
-
-@needs_proc
-def test_ctrl_c_during_simulate_writes_nothing(tmp_path):
-    out = tmp_path / "run"
-    proc = start("simulate", "--duration", "2", "--quiet", "--out", str(out))
-    time.sleep(4.0)  # imports, kernel load, then the time loop (2e7 steps: ~10 s)
-    assert proc.poll() is None
-    os.killpg(proc.pid, signal.SIGINT)
-    _, err = proc.communicate(timeout=30)
-    assert proc.returncode == 130, err
-    lines = err.splitlines()  # during the run, or during the imports on a slow machine
-    assert lines in (
-        ["signatelec: error: interrupted; nothing written"],
-        ["signatelec: interrupted"],
-    )
-    assert list(tmp_path.iterdir()) == []
 
 
 # --- the exit codes are documented ---------------------------------------------------------
