@@ -68,7 +68,7 @@ def test_simulate_refuses_a_dataset_directory_and_leaves_it_as_it_was(tmp_path):
     assert len(read_dataset(ds)) == 4  # four traces, not ball rows
 
 
-@pytest.mark.parametrize("command", ["simulate", "generate", "figures"])
+@pytest.mark.parametrize("command", ["simulate", "generate", "figures", "study"])
 def test_a_foreign_non_empty_directory_is_refused_untouched(tmp_path, command):
     out = tmp_path / "mine"
     out.mkdir()
@@ -79,6 +79,7 @@ def test_a_foreign_non_empty_directory_is_refused_untouched(tmp_path, command):
         "simulate": QUICK,
         "generate": ("generate", str(write_spec(tmp_path, SMALL_SPEC)), "--workers", "0"),
         "figures": ("figures", "--quick", "--quiet"),
+        "study": ("study", "accuracy-cost", "--quick", "--quiet"),
     }[command]
     proc = cli(*args, "--out", str(out))
     assert_one_line(proc, 2, f"--out {str(out)!r}", "is not empty", "notes.txt")
