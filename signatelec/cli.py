@@ -1,28 +1,106 @@
-"""Command line: ``signatelec simulate | bench | ...``.
+"""Command line: ``signatelec simulate | generate | figures | ...``.
 
 Errors in the input print one line ``signatelec: error: <input>: <field> = <value>: <rule>`` and
-exit with code 2, leaving nothing behind; a run that diverges exits with code 3.
+exit with code 2, leaving nothing behind. Every exit code is listed in :data:`EXIT_CODES` (shown
+by ``signatelec --help`` and in the README). Output directories follow the contract of
+:mod:`signatelec.io`: checked before any work, replaced atomically, temporaries of killed runs
+removed by the next run.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import signal
 import sys
 import warnings
 from pathlib import Path
 
-import click
 
-from signatelec.config.scene import Scene, SceneError
-from signatelec.engines.fidelity import FIDELITY_NAMES
-from signatelec.io import OutputError
+def _interrupted_while_starting(signum, frame) -> None:
+    """Ctrl-C before :func:`main` runs (the imports take a second): one line, exit 130."""
+    sys.stderr.write("signatelec: interrupted\n")
+    raise SystemExit(128 + signal.SIGINT)
 
+
+with contextlib.suppress(ValueError):  # only the main thread may set handlers
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _interrupted_while_starting)
+
+import click  # noqa: E402
+
+from signatelec.config.scene import Scene, SceneError  # noqa: E402
+from signatelec.engines.fidelity import FIDELITY_NAMES  # noqa: E402
+from signatelec.io import OutputError, OutputIncomplete, check_output_dir  # noqa: E402
+
+EXIT_OK = 0
 EXIT_INPUT = 2
 EXIT_DIVERGED = 3
+#: EX_TEMPFAIL of sysexits.h: not complete; rerunning the same command can finish it.
+EXIT_INCOMPLETE = 75
+EXIT_INTERRUPTED = 128 + signal.SIGINT
+EXIT_TERMINATED = 128 + signal.SIGTERM
+
+EXIT_CODES = (
+    (EXIT_OK, "complete"),
+    (1, "unexpected error (a bug); the traces generate wrote are kept"),
+    (EXIT_INPUT, "refused: bad input or output location; nothing written"),
+    (EXIT_DIVERGED, "the simulation diverged; nothing written"),
+    (
+        EXIT_INCOMPLETE,
+        "incomplete (disk full, I/O error, a worker or the cluster lost): simulate and figures "
+        "wrote nothing, generate kept the traces written; rerun the same command to resume",
+    ),
+    (EXIT_INTERRUPTED, "interrupted (Ctrl-C); as 75"),
+    (EXIT_TERMINATED, "terminated (SIGTERM); as 75"),
+)
+
+
+def _exit_code_table() -> str:
+    """The exit codes as ``--help`` shows them (``\b``: click keeps the lines as they are)."""
+    import textwrap
+
+    lines = ["\b", "Exit codes:"]
+    for code, text in EXIT_CODES:
+        wrapped = textwrap.wrap(text, 66)
+        lines.append(f"  {code:>3}  {wrapped[0]}")
+        lines.extend(f"       {line}" for line in wrapped[1:])
+    return "\n".join(lines)
 
 
 class InputError(click.ClickException):
     exit_code = EXIT_INPUT
+
+
+class Stopped(click.ClickException):
+    """A run that stopped before completing; the message says what is kept."""
+
+    def __init__(self, message: str, exit_code: int):
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that the same clean-up runs."""
+
+
+def _stop_code(exc: BaseException) -> int:
+    return EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
+
+
+def _stop_word(exc: BaseException) -> str:
+    return "terminated" if isinstance(exc, Terminated) else "interrupted"
+
+
+class _Group(click.Group):
+    """A command interrupted by Ctrl-C or SIGTERM ends with one line and its exit code (click
+    itself would print a blank line and "Aborted!")."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt as exc:
+            raise Stopped(_stop_word(exc), _stop_code(exc)) from None
 
 
 #: Command-line options of the scene parameters they override, to name them in errors.
@@ -37,7 +115,7 @@ OVERRIDE_OPTIONS = {
 
 def scene_source(scene_file: str | None, overrides: dict | None = None) -> str:
     """Where a scene came from, for error messages: the file and the options that changed it."""
-    where = f"scene {scene_file!r}" if scene_file else "default scene"
+    where = f"scene {scene_file!r}" if scene_file is not None else "default scene"
     given = [
         f"{OVERRIDE_OPTIONS.get(k, k)} {v!r}" for k, v in (overrides or {}).items() if v is not None
     ]
@@ -46,7 +124,7 @@ def scene_source(scene_file: str | None, overrides: dict | None = None) -> str:
 
 def load_scene(scene_file: str | None, **overrides) -> Scene:
     try:
-        scene = Scene.from_toml(scene_file) if scene_file else Scene()
+        scene = Scene.from_toml(scene_file) if scene_file is not None else Scene()
     except SceneError as exc:
         message = str(exc)
         # a file that cannot be read or parsed names itself ("scene file '...': ...")
@@ -58,36 +136,16 @@ def load_scene(scene_file: str | None, **overrides) -> Scene:
         raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
 
 
-def check_writable(out: str) -> None:
-    """Fail before a long run when the output location cannot be written.
-
-    The nearest existing ancestor of ``out`` must be a directory where a file can be created
-    (probed with a temporary file, removed at once); nothing is left behind.
-    """
-    import os
-    import tempfile
-
-    if not out.strip():
-        raise InputError(f"--out {out!r}: must name a directory")
-    path = Path(out)
-    if path.exists() and not path.is_dir():
-        raise InputError(f"--out {out!r}: exists and is not a directory; choose a directory")
-    probe = path
-    while not probe.exists() and probe != probe.parent:
-        probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-        raise InputError(f"--out {out!r}: {str(probe)!r} is not a writable directory")
+def claim_output(out: str, command: str, **kwargs) -> Path:
+    """Refuse, before a long run, an output location ``command`` may not write
+    (:func:`signatelec.io.check_output_dir`); nothing is left behind."""
     try:
-        with tempfile.TemporaryFile(dir=probe, prefix=".signatelec-probe"):
-            pass
-    except OSError as exc:
-        raise InputError(
-            f"--out {out!r}: cannot create files in {str(probe)!r} ({exc.strerror or exc}); "
-            "choose a writable directory"
-        ) from None
+        return check_output_dir(out, command, **kwargs)
+    except OutputError as exc:
+        raise InputError(str(exc)) from None
 
 
-@click.group()
+@click.group(cls=_Group, epilog=_exit_code_table())
 @click.version_option(package_name="signatelec")
 def cli() -> None:
     """signatelec: DEM ball-bearing simulator and electrical resistance signatures."""
@@ -134,7 +192,14 @@ def simulate(
         except SceneError as exc:
             where = scene_source(scene_file, overrides)
             raise InputError(f"{where} at --fidelity {fidelity}: {exc}") from None
-    check_writable(out)
+    from signatelec.engines.budget import check_run
+    from signatelec.io import is_simulate_output
+
+    try:
+        check_run(scene)  # steps, recorded instants, memory: before anything is written
+    except SceneError as exc:
+        raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
+    claim_output(out, "simulate", previous=is_simulate_output)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -144,14 +209,25 @@ def simulate(
     except SceneError as exc:
         raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
     except DivergenceError as exc:
-        click.echo(f"signatelec: error: {exc}", err=True)
-        sys.exit(EXIT_DIVERGED)
-    try:
-        result.write(out)
-    except OutputError as exc:
-        raise InputError(str(exc)) from None
+        raise Stopped(f"{exc}; nothing written", EXIT_DIVERGED) from None
+    except KeyboardInterrupt as exc:
+        raise Stopped(f"{_stop_word(exc)}; nothing written", _stop_code(exc)) from None
+    write_output(lambda: result.write(out))
     if not quiet:
         click.echo(summary(result, out))
+
+
+def write_output(write) -> None:
+    """Call ``write`` (an atomic replacement of the output directory) and give each way it can
+    fail its exit code: refused (2), not written (75), interrupted (130, 143); nothing written."""
+    try:
+        write()
+    except OutputError as exc:
+        raise InputError(str(exc)) from None
+    except OutputIncomplete as exc:
+        raise Stopped(str(exc), EXIT_INCOMPLETE) from None
+    except KeyboardInterrupt as exc:
+        raise Stopped(f"{_stop_word(exc)}; nothing written", _stop_code(exc)) from None
 
 
 def summary(result, out: str | None = None) -> str:
@@ -239,20 +315,28 @@ def bench(out, duration_s, fresh_cache, cases):
 def figures(out, quick, quiet):
     """Regenerate the seed's figures 6-11: DIR/figure_6_9.png, figure_7_10.png, figure_8_11.png."""
     from signatelec.engines.results import DivergenceError
-    from signatelec.studies.paper_figures import paper_figures
+    from signatelec.io import holds_only, replace_directory
+    from signatelec.studies.paper_figures import FIGURE_FILES, paper_figures
 
-    check_writable(out)
+    def previous(directory: Path) -> bool:  # figures written before the marker existed
+        return holds_only(directory, FIGURE_FILES)
+
+    claim_output(out, "figures", previous=previous)
+    written: list[Path] = []
+
+    def write() -> None:
+        with replace_directory(out, "figures", previous=previous) as tmp:
+            written.extend(Path(out) / p.name for p in paper_figures(tmp, **options))
+
+    options = {"quick": quick, "progress": not quiet}
     try:
-        paths = paper_figures(out, quick=quick, progress=not quiet)
+        write_output(write)
     except SceneError as exc:
         raise InputError(str(exc)) from None
     except DivergenceError as exc:
-        click.echo(f"signatelec: error: {exc}", err=True)
-        sys.exit(EXIT_DIVERGED)
-    except OSError as exc:
-        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+        raise Stopped(f"{exc}; nothing written", EXIT_DIVERGED) from None
     if not quiet:
-        for path in paths:
+        for path in written:
             click.echo(f"wrote {path}")
 
 
@@ -268,15 +352,23 @@ def study() -> None:
 @click.option("--quiet", is_flag=True, help="No progress bar or file list.")
 def accuracy_cost(out, quick, fresh, quiet):
     """Fidelity ladder against a dt = 1e-8 s reference: DIR/accuracy_cost.{parquet,md,png}."""
+    from signatelec.io import holds_only, write_marker
     from signatelec.studies.accuracy_cost import run_study
 
-    check_writable(out)
+    own = ("accuracy_cost.parquet", "accuracy_cost.md", "accuracy_cost.png", ".cache")
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, "study accuracy-cost", previous=previous, replaced=False)
     try:
         run_study(
             out, quick=quick, progress=not quiet, fresh=fresh, log=None if quiet else click.echo
         )
+        write_marker(out, "study accuracy-cost")
     except OSError as exc:
-        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+        raise Stopped(
+            f"--out {out!r}: cannot write there ({exc.strerror or exc}); finished cases are kept "
+            "in DIR/.cache: rerun the same command to resume",
+            EXIT_INCOMPLETE,
+        ) from None
 
 
 @cli.command()
@@ -302,6 +394,8 @@ def generate(spec_file, out, workers, scheduler, quiet):
     """
     from signatelec.data import DatasetDirError, SpecError, load_spec
     from signatelec.data import generate as run_generate
+    from signatelec.data.schedule import kept, stop_reason
+    from signatelec.data.store import LOCK_FILE, is_dataset
 
     try:
         spec = load_spec(spec_file)
@@ -311,20 +405,26 @@ def generate(spec_file, out, workers, scheduler, quiet):
         raise InputError(f"--workers {workers}: must be >= 0 (0: run in this process)")
     if workers is not None and scheduler:
         raise InputError(f"--workers {workers}: give --workers or --scheduler, not both")
-    check_writable(out)
+    # below DIR: regime=<regime>/<temporary name of a part file>
+    claim_output(
+        out, "generate", previous=is_dataset, ignore=(LOCK_FILE,), inner_bytes=100, replaced=False
+    )
+
+    def log(line: str) -> None:
+        click.echo(f"signatelec: warning: {line}", err=True)
+
     try:
-        summary_ = run_generate(spec, out, workers=workers, scheduler=scheduler, progress=not quiet)
-    except DatasetDirError as exc:
-        raise InputError(str(exc)) from None
-    except OSError as exc:
-        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
-    except Exception as exc:  # a worker died or the cluster failed: what is written stays
-        click.echo(
-            f"signatelec: error: generation stopped ({type(exc).__name__}: {exc}); the traces "
-            "written are kept: rerun the same command to resume",
-            err=True,
+        summary_ = run_generate(
+            spec, out, workers=workers, scheduler=scheduler, progress=not quiet, log=log
         )
-        sys.exit(1)
+    except (SpecError, DatasetDirError) as exc:  # refused before any trace was written
+        raise InputError(str(exc)) from None
+    except KeyboardInterrupt as exc:
+        raise Stopped(f"{_stop_word(exc)}; {kept(out, spec)}", _stop_code(exc)) from None
+    except Exception as exc:
+        resumable, reason = stop_reason(exc)
+        code = EXIT_INCOMPLETE if resumable else 1
+        raise Stopped(f"generation stopped ({reason}); {kept(out, spec)}", code) from None
     if not quiet:
         click.echo(summary_.describe())
 
@@ -377,6 +477,11 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
 
     if out is not None:
         check_writable_file(out, suffixes=(".json", ".parquet"))
+    from signatelec.io import TRACE_MAX_BYTES, input_size_problem
+
+    problem = input_size_problem(trace_file, TRACE_MAX_BYTES)
+    if problem:
+        raise InputError(f"trace {trace_file!r}: {problem}")
     try:
         t, r = read_trace(trace_file, time_column, resistance_column)
         trace = prepare_trace(t, r, omega_rad_s, source=f"trace {trace_file!r}")
@@ -440,17 +545,33 @@ def train(dataset, out, quiet):
         )
 
 
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> None:
+    """The ``signatelec`` command; SIGTERM stops a run as Ctrl-C does (exit 143)."""
+    previous = None
+    with contextlib.suppress(ValueError):  # not the main thread: leave the handlers alone
+        if signal.getsignal(signal.SIGINT) is _interrupted_while_starting:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         cli.main(args=argv, prog_name="signatelec", standalone_mode=False)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except click.Abort:
-        click.echo("signatelec: aborted", err=True)
-        sys.exit(130)
+        click.echo("signatelec: interrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except (InputError, Stopped) as exc:
+        click.echo(f"signatelec: error: {exc.format_message()}", err=True)
+        sys.exit(exc.exit_code)
     except click.ClickException as exc:
         click.echo(f"signatelec: error: {exc.format_message()}", err=True)
         sys.exit(EXIT_INPUT)
     except (SceneError, OutputError) as exc:
         click.echo(f"signatelec: error: {exc}", err=True)
         sys.exit(EXIT_INPUT)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

@@ -215,6 +215,27 @@ SCENE_CASES = {
         (),
         ("numerics.sample_rate_hz = 5e-324", "must be >= 1/duration_s"),
     ),
+    # what a run would cost, checked before it starts
+    "too_many_steps": Case(
+        "[numerics]\ndt_s = 1e-12\n",
+        (),
+        ("numerics.dt_s = 1e-12", "3e+10 steps, more than the 1e+09", "raise numerics.dt_s"),
+    ),
+    "too_many_instants": Case(
+        "[numerics]\nsample_rate_hz = 1e7\nduration_s = 100.0\n",
+        (),
+        ("numerics.sample_rate_hz", "more than the 1e+08 a run may record"),
+    ),
+    "no_instant_after_the_set_up": Case(
+        "[numerics]\nsample_rate_hz = 148.0\nduration_s = 0.0075\n",
+        (),
+        ("numerics.sample_rate_hz = 148.0", "records no instant after the set-up"),
+    ),
+    "no_allowed_time_step": Case(
+        "[effects]\ncontact_law = 'linear'\n[numerics]\nlinear_stiffness_n_m = 1e300\n",
+        (),
+        ("numerics.dt_s", "no allowed time step runs this scene", "below the smallest dt_s"),
+    ),
     # files
     "not_toml": Case("this is not = = TOML [\n", (), ("not valid TOML",)),
     "binary_garbage": Case(bytes(range(256)) * 8, (), ("is not UTF-8 text", "TOML file")),
@@ -238,6 +259,9 @@ OPTION_CASES = {
     ),
     "dt_subnormal": Case(
         None, ("--dt", "5e-324"), ("--dt 5e-324", "numerics.dt_s", "must be >= 1e-12 s")
+    ),
+    "dt_too_many_steps": Case(
+        None, ("--dt", "1e-12"), ("--dt 1e-12", "numerics.dt_s", "steps, more than the 1e+09")
     ),
     "unknown_option": Case(None, ("--load", "5820"), ("No such option", "--load", "--radial-load")),
 }
@@ -318,6 +342,17 @@ def test_missing_scene_file(workspace, capsys):
     missing = scenes / "absent.toml"
     code, err = run_main(["simulate", "--scene", str(missing), "--out", str(out)], capsys)
     assert_one_clear_line(code, err, (repr(str(missing)), "cannot be read", "No such file"))
+    assert_nothing_left(work, out, set())
+
+
+@pytest.mark.parametrize(
+    ("path", "expected"), [("", "must name a file"), ("/dev/zero", "is larger than 10 MiB")]
+)
+def test_empty_scene_path_and_endless_device(path, expected, workspace, capsys):
+    _, work = workspace
+    out = work / "out"
+    code, err = run_main(["simulate", "--scene", path, "--out", str(out)], capsys)
+    assert_one_clear_line(code, err, (f"scene file {path!r}", expected))
     assert_nothing_left(work, out, set())
 
 

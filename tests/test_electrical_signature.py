@@ -279,11 +279,14 @@ def test_figure_9_clearance_gives_epsilon_0_3_in_the_dem(run_scene):
 @pytest.mark.slow  # seven short DEM runs and three figures: 2-9 s
 def test_figures_command_writes_the_three_pngs(tmp_path):
     from signatelec.cli import main
+    from signatelec.io import MARKER_FILE
     from signatelec.studies.paper_figures import FIGURE_FILES
 
     out = tmp_path / "docs" / "figures"
     main(["figures", "--quick", "--quiet", "--out", str(out)])
-    assert sorted(p.name for p in out.iterdir()) == sorted(FIGURE_FILES)  # no temporary left
+    # the figures and the output marker, no temporary left
+    assert sorted(p.name for p in out.iterdir()) == sorted([*FIGURE_FILES, MARKER_FILE])
+    assert sorted(p.name for p in out.parent.iterdir()) == ["figures"]
     for name in FIGURE_FILES:
         data = (out / name).read_bytes()
         assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 10_000

@@ -20,9 +20,11 @@ values, default and cost; ``[effects]`` holds the physics, each option naming a 
 
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import math
+import os
 import tomllib
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
@@ -38,6 +40,7 @@ from signatelec.config.constraints import (
     Checker,
     Constraint,
 )
+from signatelec.io import read_limited
 from signatelec.physics.contact import CONTACT_LAWS, hertz_normal_force, law_coefficients
 
 
@@ -346,12 +349,30 @@ class Scene:
         return replace(self, **updated)
 
 
+#: Largest scene file or dataset spec read, bytes: far above any real one (a few kB), small
+#: enough that a device such as /dev/zero or a misnamed data file is refused at once.
+TOML_MAX_BYTES = 10 * 1024**2
+
+
 def read_toml(path: str | Path, label: str, noun: str, error: type[ValueError]) -> dict:
-    """A UTF-8 TOML file as a dict; on failure ``error`` with one line starting with ``label``."""
+    """A UTF-8 TOML file as a dict; on failure ``error`` with one line starting with ``label``.
+
+    The file is read up to :data:`TOML_MAX_BYTES` (a larger file or an endless device is refused
+    after reading one byte more); an empty path is refused, not taken as no file.
+    """
+    if not os.fspath(path).strip():
+        raise error(f"{label}: must name a file; {noun} is a UTF-8 TOML file")
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        data = read_limited(path, TOML_MAX_BYTES)
     except OSError as exc:
+        if exc.errno == errno.EFBIG:
+            raise error(
+                f"{label}: is larger than {TOML_MAX_BYTES // 1024**2} MiB; {noun} is a small "
+                "UTF-8 TOML file"
+            ) from None
         raise error(f"{label}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise error(f"{label}: is not UTF-8 text; {noun} is a UTF-8 TOML file") from None
     try:

@@ -4,7 +4,8 @@ Every local worker is forked from the forkserver, so it starts with these module
 (about 2 s of imports on a busy 2-core machine, paid once instead of once per worker). The
 forkserver is started while the parent compiles the kernels, so the two overlap; each worker then
 loads the compiled kernels from the on-disk cache in its initializer
-(:func:`signatelec.data.runner.warm_up`).
+(:func:`signatelec.data.runner.warm_up`). The forkserver dies with the job that started it
+(:func:`signatelec.data.lifeline.init_forkserver`).
 """
 
 from __future__ import annotations
@@ -18,3 +19,6 @@ import signatelec.engines.dem.run  # noqa: F401
 import signatelec.engines.fidelity  # noqa: F401
 import signatelec.physics.electrical  # noqa: F401
 import signatelec.physics.quasistatic  # noqa: F401
+from signatelec.data.lifeline import init_forkserver
+
+init_forkserver()

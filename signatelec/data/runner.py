@@ -16,9 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from signatelec.config.scene import SceneError
+from signatelec.config.constraints import Checker
+from signatelec.config.scene import Scene, SceneError
 from signatelec.data.design import TraceTask, operating_point, trace_rng
-from signatelec.data.spec import TraceContext
+from signatelec.data.spec import Spec, SpecError, TraceContext
 from signatelec.measurement.model import MeasurementError, MeasurementModel
 from signatelec.physics.regimes import regime_of
 
@@ -68,6 +69,69 @@ def warm_up(ctx: TraceContext, *, imports: bool = True) -> float:
             if ctx.needs_epsilon:
                 import signatelec.physics.quasistatic  # noqa: F401  (the clearance of an epsilon)
     return time.perf_counter() - t0
+
+
+def trace_scene(ctx: TraceContext, scene: Scene) -> tuple[Scene, float, int]:
+    """The scene a trace simulates from its operating point's ``scene``: the fidelity's time
+    step, the record rate of the measurement and a duration covering the set-up, the settling,
+    the window and its guards. Also the window's first instant ``t0_s`` and its sample count."""
+    from signatelec.engines.fidelity import apply_fidelity
+
+    m = ctx.measurement
+    scene = apply_fidelity(scene, ctx.fidelity)
+    dt = scene.numerics.dt_s
+    n = int(round(ctx.duration_s * m.sample_rate_hz))
+    t0 = scene.setup_time_s + ctx.settle_s + m.guard_s
+    end = t0 + (n - 1) / m.sample_rate_hz + m.guard_s
+    scene = scene.with_overrides(duration_s=end + 2.0 * dt, sample_rate_hz=m.simulation_rate_hz(dt))
+    return scene, t0, n
+
+
+def check_budget(spec: Spec, *, concurrent: int | None = 1) -> None:
+    """Refuse (:class:`SpecError`) a spec whose traces would exceed the run limits of
+    :mod:`signatelec.engines.budget` (steps, recorded instants) or, ``concurrent`` at once, this
+    machine's available memory (None: the traces run elsewhere, on a cluster). The base
+    scene's trace stands for all: every trace shares its window and record rate (the time step
+    of the fast and balanced presets varies a little with the operating point)."""
+    from signatelec.engines import budget
+
+    ctx = spec.context
+    m = ctx.measurement
+    check = Checker(SpecError, f"spec {spec.path!r}")
+    try:
+        scene, _, _ = trace_scene(ctx, ctx.scene)
+    except SceneError:
+        return  # each trace fails on its own, with the reason
+    need = budget.run_budget(scene)
+    rate = f"measurement.sample_rate_hz = {m.sample_rate_hz:g}"
+    if need.n_steps > budget.MAX_STEPS:
+        check.fail(
+            "dataset.duration_s",
+            ctx.duration_s,
+            f"at fidelity {ctx.fidelity} (dt = {scene.numerics.dt_s:g} s) a trace, with its "
+            f"set-up and guards, takes {need.n_steps:.3g} steps, more than the "
+            f"{budget.MAX_STEPS:.0e} a run may take; shorten dataset.duration_s or settle_s",
+        )
+    if need.n_instants > budget.MAX_RECORDED_INSTANTS:
+        check.fail(
+            "dataset.duration_s",
+            ctx.duration_s,
+            f"at {rate} (x oversample {m.oversample}) a trace records {need.n_instants:.3g} "
+            f"instants, more than the {budget.MAX_RECORDED_INSTANTS:.0e} a run may record; "
+            "lower measurement.sample_rate_hz or oversample, or shorten dataset.duration_s",
+        )
+    available = budget.available_memory_bytes() if concurrent else None
+    if available is not None and need.memory_bytes * concurrent > available:
+        at_once = f" x {concurrent} workers at once" if concurrent > 1 else ""
+        check.fail(
+            "dataset.duration_s",
+            ctx.duration_s,
+            f"at {rate} (x oversample {m.oversample}) a trace records {need.n_instants:.3g} "
+            f"instants, ~{budget.format_bytes(need.memory_bytes)}{at_once}, more than this "
+            f"machine's {budget.format_bytes(available)} available; lower "
+            "measurement.sample_rate_hz or oversample, shorten dataset.duration_s, or use "
+            "fewer workers",
+        )
 
 
 def _new_record(ctx: TraceContext, task: TraceTask) -> dict[str, Any]:
@@ -129,7 +193,6 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
     """Simulate one trace and measure it: a record of labels and signals (never raises for a
     scene that is not allowed, a divergence or an unreachable epsilon: those give status
     "failed" and the error)."""
-    from signatelec.engines.fidelity import apply_fidelity
     from signatelec.engines.results import DivergenceError
     from signatelec.engines.simulate import simulate
 
@@ -148,15 +211,9 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
                 omega_rad_s=rec["omega_rad_s"],
                 initial_ball_angle_rad=rec["initial_ball_angle_rad"],
             )
-            scene = apply_fidelity(scene, ctx.fidelity)
+            scene, t0, n = trace_scene(ctx, scene)
             dt = scene.numerics.dt_s
             rec["dt_s"], rec["integrator"] = dt, scene.numerics.integrator
-            n = int(round(ctx.duration_s * m.sample_rate_hz))
-            t0 = scene.setup_time_s + ctx.settle_s + m.guard_s
-            end = t0 + (n - 1) / m.sample_rate_hz + m.guard_s
-            scene = scene.with_overrides(
-                duration_s=end + 2.0 * dt, sample_rate_hz=m.simulation_rate_hz(dt)
-            )
             rec["simulation_rate_hz"] = 1.0 / (scene.record_every * dt)
             rec["t0_s"], rec["n_samples"] = t0, n
             result = simulate(scene)

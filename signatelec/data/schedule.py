@@ -5,7 +5,9 @@ traces (:mod:`signatelec.data.design`), runs each (:mod:`signatelec.data.runner`
 part file per trace (:mod:`signatelec.data.store`), skipping the traces already written. The
 kernels are compiled in the calling process before any worker starts; local workers are forked
 from a forkserver whose imports overlap that compilation; a bounded number of traces is in
-flight per worker, so a million-trace spec is not queued at once.
+flight per worker, so a million-trace spec is not queued at once. Local workers end with the
+job (:mod:`signatelec.data.lifeline`): a job that stops, is interrupted or killed takes them
+with it, and what they were writing is left as temporaries the next run removes.
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from signatelec.data import lifeline
 from signatelec.data.design import TraceTask, design_traces
-from signatelec.data.runner import STATUS_OK, labels, run_trace, warm_up
+from signatelec.data.runner import STATUS_OK, check_budget, labels, run_trace, warm_up
 from signatelec.data.spec import Spec, TraceContext
 from signatelec.data.store import (
     MANIFEST_FILE,
@@ -30,6 +33,7 @@ from signatelec.data.store import (
     part_metadata,
     prepare_output,
     remove_stale_temporaries,
+    verified_parts,
     write_manifest,
     write_part,
 )
@@ -42,8 +46,10 @@ _WORKER: dict[str, Any] = {}
 IN_FLIGHT_PER_WORKER = 4
 
 
-def _worker_init(ctx: TraceContext, out: str, metadata: dict) -> None:
-    """Each local worker, before its first trace: load the kernels the parent compiled."""
+def _worker_init(ctx: TraceContext, out: str, metadata: dict, job_pid: int) -> None:
+    """Each local worker, before its first trace: bind its life to the job's, then load the
+    kernels the parent compiled."""
+    lifeline.init_worker(job_pid)
     _WORKER.update(ctx=ctx, out=Path(out), metadata=metadata)
     warm_up(ctx)
 
@@ -60,6 +66,7 @@ def _process_context():
     imports overlap the parent's kernel compilation) or, where there is none, spawn."""
     import multiprocessing
     import multiprocessing.forkserver
+    import multiprocessing.resource_tracker
 
     for name in _THREAD_VARIABLES:  # one thread per worker: the workers are the parallelism
         os.environ.setdefault(name, "1")
@@ -67,7 +74,11 @@ def _process_context():
         return multiprocessing.get_context("spawn")
     mp = multiprocessing.get_context("forkserver")
     mp.set_forkserver_preload(["signatelec.data._forkserver_preload"])
-    multiprocessing.forkserver.ensure_running()
+    os.environ[lifeline.JOB_PID_VARIABLE] = str(os.getpid())
+    # the resource tracker first: starting it unblocks SIGINT (multiprocessing.resource_tracker)
+    multiprocessing.resource_tracker.ensure_running()
+    with lifeline.interrupts_blocked():  # the forkserver and its workers never see Ctrl-C
+        multiprocessing.forkserver.ensure_running()
     return mp
 
 
@@ -87,7 +98,7 @@ def _local_results(
         max_workers=workers,
         mp_context=mp or _process_context(),
         initializer=_worker_init,
-        initargs=(ctx, str(out), metadata),
+        initargs=(ctx, str(out), metadata, os.getpid()),
     )
     queue = iter(tasks)
     pending: set = set()
@@ -104,8 +115,8 @@ def _local_results(
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in finished:
                     yield fut.result()
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
+        except BaseException:  # an error, Ctrl-C, or the caller stopped: the workers end now
+            lifeline.stop_pool(pool)
             raise
 
 
@@ -178,15 +189,24 @@ def generate(
     scheduler: str | None = None,
     progress: bool = False,
     on_trace: Callable[[dict], None] | None = None,
+    log: Callable[[str], None] | None = None,
 ) -> Summary:
     """Generate the spec's traces into ``out``, skipping those already there.
 
     ``workers``: local worker processes (default: all cores; 0 runs in this process);
     ``scheduler``: the address of a Dask scheduler to run on instead. Kernels are compiled in
     this process before the workers start; ``on_trace`` is called with the labels of each trace
-    written. Returns a :class:`Summary`.
+    written, ``log`` with a line for each part file found unreadable and moved aside. Returns a
+    :class:`Summary`. Before anything is written, a trace that would exceed the run limits
+    (:func:`signatelec.data.runner.check_budget`) raises
+    :class:`~signatelec.data.spec.SpecError`.
     """
     t_start = time.perf_counter()
+    if scheduler is None:
+        workers = default_workers() if workers is None else workers
+        check_budget(spec, concurrent=max(workers, 1))
+    else:  # the cluster's workers have their own memory
+        check_budget(spec, concurrent=None)
     client = None
     if scheduler:  # before anything is written: a cluster that cannot be reached is an input
         from distributed import Client
@@ -198,7 +218,12 @@ def generate(
     try:
         out = prepare_output(spec, out)
         with locked(out):
-            summary = _generate_into(spec, out, workers, client, progress, on_trace, t_start)
+            try:
+                summary = _generate_into(
+                    spec, out, workers, client, progress, on_trace, log, t_start
+                )
+            finally:  # what stopped workers were writing (their pids are gone now)
+                remove_stale_temporaries(out)
     finally:
         if client is not None:
             client.close()
@@ -206,14 +231,17 @@ def generate(
     return summary
 
 
-def _generate_into(spec, out, workers, client, progress, on_trace, t_start) -> Summary:
+def default_workers() -> int:
+    """Local workers when none are asked for: one per core this process may use."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _generate_into(spec, out, workers, client, progress, on_trace, log, t_start) -> Summary:
     ctx = spec.context
     metadata = part_metadata(spec)
     remove_stale_temporaries(out)
-    done = done_trace_ids(out)
+    done = verified_parts(out, done_trace_ids(out), log)
     local = client is None
-    if local and workers is None:
-        workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
     # the forkserver's imports overlap the design and the parent's kernel compilation
     mp = _process_context() if local and workers and len(done) < spec.n_traces else None
     tasks = [t for t in design_traces(spec) if t.trace_id not in done]
@@ -261,3 +289,30 @@ def _generate_into(spec, out, workers, client, progress, on_trace, t_start) -> S
         cores=cores,
         cpu_s=cpu,
     )
+
+
+def kept(out: str | Path, spec: Spec) -> str:
+    """What a stopped job leaves in ``out``: the traces written, and how to go on."""
+    if not Path(out).is_dir():
+        return "nothing written"
+    try:
+        done = len(done_trace_ids(out))
+    except OSError:
+        done = 0
+    return (
+        f"{done} of {spec.n_traces} traces are written and kept: rerun the same command to resume"
+    )
+
+
+def stop_reason(exc: Exception) -> tuple[bool, str]:
+    """Whether a rerun can finish a job stopped by ``exc`` (the disk, the file system, a worker
+    process, the cluster; not a bug), and the reason in a few words."""
+    from concurrent.futures import BrokenExecutor
+
+    if isinstance(exc, OSError):
+        return True, exc.strerror or str(exc) or type(exc).__name__
+    if isinstance(exc, BrokenExecutor):
+        return True, "a worker process died"
+    if type(exc).__name__ in ("KilledWorker", "CancelledError", "CommClosedError"):
+        return True, f"the cluster failed: {type(exc).__name__}: {exc}"
+    return False, f"unexpected {type(exc).__name__}: {exc}"

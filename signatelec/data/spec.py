@@ -221,6 +221,13 @@ def spec_from_dict(data: dict, path: str = "<spec>") -> Spec:
     dataset = {row.key: check.check(row, ds.get(row.key, defaults[row.key])) for row in DATASET}
 
     measurement = _measurement(check, data.get("measurement", {}))
+    if measurement.sample_rate_hz * dataset["duration_s"] < 1.0:
+        check.fail(
+            "measurement.sample_rate_hz",
+            measurement.sample_rate_hz,
+            f"at dataset.duration_s = {dataset['duration_s']:g} s the window holds no sample; "
+            f"must be >= 1/duration_s = {1.0 / dataset['duration_s']:.4g} Hz",
+        )
     scene, scene_table = _base_scene(check, data.get("scene", {}))
 
     raw_designs = data.get("design")

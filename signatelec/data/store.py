@@ -3,22 +3,29 @@
 Layout: ``DIR/regime=<preload|zero|clearance>/trace-<id>.parquet``, one row per trace (labels
 and the signals as list columns), each written under a temporary name and renamed; ``DIR`` is a
 hive-partitioned dataset that pandas, pyarrow and dask read as is. ``DIR/_spec.json`` holds the
-spec (written before the first trace), ``DIR/_manifest.json`` the summary (written last). The
+spec (written before the first trace), ``DIR/_manifest.json`` the summary (written last),
+``DIR/.signatelec.json`` marks the directory as ``generate``'s (:mod:`signatelec.io`). The
 trace ids done are those of the part files present: a rerun skips them, so a job killed at any
-point resumes where it stopped.
+point resumes where it stopped. A rerun touches only what a job writes: it removes the
+temporaries of dead jobs (:func:`signatelec.io.remove_stale_temporaries`) and moves a part file
+that cannot be read aside (``regime=R/_trace-<id>.parquet.corrupt``, which readers skip) to
+generate it again.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
-from collections.abc import Iterator
+import shutil
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 
+from signatelec import io
 from signatelec._version import __version__
 from signatelec.data.design import SEEDING, trace_seed_json
 from signatelec.data.runner import STATUS_OK
@@ -29,6 +36,13 @@ _PART_NAME = re.compile(r"^trace-(\d+)\.parquet$")
 SPEC_FILE = "_spec.json"
 MANIFEST_FILE = "_manifest.json"
 LOCK_FILE = ".lock"
+COMMAND = "generate"
+#: Temporaries of earlier versions: ``.<file>.<pid>.tmp`` beside the file.
+_LEGACY_TEMPORARY = re.compile(
+    r"^\.(?:trace-[0-9]{6}\.parquet|_spec\.json|_manifest\.json)\.(?P<pid>[0-9]{1,10})\.tmp$"
+)
+#: A part file moved aside: ``_trace-<id>.parquet.corrupt[.<n>]`` (``_``: readers skip it).
+QUARANTINE_SUFFIX = ".corrupt"
 
 
 class DatasetDirError(OSError):
@@ -129,36 +143,75 @@ def record_table(rec: dict, metadata: dict):
 def write_part(out: Path, rec: dict, metadata: dict) -> Path:
     """Write a trace's part file atomically (temporary name, fsync, rename); ``metadata``: the
     dataset's (:func:`part_metadata`), to which the trace's seed is added."""
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
     meta = {**metadata, "trace_seed": trace_seed_json(rec["seed"], rec["trace_id"])}
     path = part_path(out, rec["regime"], rec["trace_id"])
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            pq.write_table(record_table(rec, meta), fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    sink = pa.BufferOutputStream()
+    pq.write_table(record_table(rec, meta), sink)
+    io.write_bytes_atomic(path, sink.getvalue().to_pybytes())
     return path
 
 
-def _write_json(path: Path, data: dict) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+def remove_stale_temporaries(out: Path) -> list[str]:
+    """Temporaries of dead jobs (never renamed into place), in ``out`` and its partitions; a
+    live job's and every other file are left alone."""
+    removed = io.remove_stale_temporaries(out, _LEGACY_TEMPORARY)
+    for regime in out.glob("regime=*"):
+        if regime.is_dir():
+            removed += io.remove_stale_temporaries(regime, _LEGACY_TEMPORARY)
+    return removed
 
 
-def remove_stale_temporaries(out: Path) -> None:
-    """Temporary files of a killed job (never renamed into place)."""
-    for pattern in (".*.tmp", "regime=*/.*.tmp"):
-        for p in out.glob(pattern):
-            with contextlib.suppress(OSError):
-                p.unlink()
+def part_problem(path: Path, trace_id: int) -> str | None:
+    """Why a part file cannot be the trace's record (None: it can): its footer and the id and
+    status columns are read, so a truncated or foreign file is found without reading signals."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        table = pq.read_table(path, columns=["trace_id", "status"])
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        return text if len(text) < 100 else text[:97] + "..."
+    if table.num_rows != 1:
+        return f"{table.num_rows} rows, a part file has one"
+    if table.column("trace_id")[0].as_py() != trace_id:
+        return f"holds trace {table.column('trace_id')[0].as_py()}"
+    return None
+
+
+def quarantine(path: Path) -> Path:
+    """Move a part file aside under a name readers skip; returns the new path."""
+    target = path.with_name(f"_{path.name}{QUARANTINE_SUFFIX}")
+    n = 1
+    while target.exists():
+        n += 1
+        target = path.with_name(f"_{path.name}{QUARANTINE_SUFFIX}.{n}")
+    os.rename(path, target)
+    return target
+
+
+def verified_parts(
+    out: Path, done: dict[int, Path], log: Callable[[str], None] | None = None
+) -> dict[int, Path]:
+    """The finished traces whose part files can be read; the others are quarantined (one line
+    each to ``log``) and so generated again."""
+    good = {}
+    for trace_id, path in done.items():
+        problem = part_problem(path, trace_id)
+        if problem is None:
+            good[trace_id] = path
+            continue
+        moved = quarantine(path)
+        if log is not None:
+            log(
+                f"{path.relative_to(out)} cannot be read ({problem}); moved to "
+                f"{moved.relative_to(out)}, trace {trace_id} is generated again"
+            )
+    return good
 
 
 @contextlib.contextmanager
@@ -176,34 +229,63 @@ def locked(out: Path) -> Iterator[None]:
         yield
 
 
+def is_dataset(directory: Path) -> bool:
+    """A dataset directory written before the marker existed (it has the spec file)."""
+    return (directory / SPEC_FILE).is_file()
+
+
 def prepare_output(spec: Spec, out: str | Path) -> Path:
-    """Create ``out`` or check that it holds this spec's (partial) dataset."""
+    """Create ``out`` or check that it holds this spec's (partial) dataset; a new dataset gets
+    its marker and spec file. Raises :class:`DatasetDirError` (nothing written) otherwise."""
     out = Path(out)
     spec_path = out / SPEC_FILE
+    where = f"--out {str(out)!r}"
     if out.exists():
         if not out.is_dir():
-            raise DatasetDirError(f"--out {str(out)!r}: exists and is not a directory")
-        if spec_path.exists():
+            raise DatasetDirError(f"{where}: exists and is not a directory")
+        if is_dataset(out):
+            why = io.refusal(out, COMMAND)
+            if why is not None and io.read_marker(out) is not None:
+                raise DatasetDirError(f"{where}: {why}")
             try:
                 stored = json.loads(spec_path.read_text(encoding="utf-8"))["spec"]
             except (OSError, ValueError, KeyError):
                 stored = None
             if stored != json.loads(spec.to_json()):
                 raise DatasetDirError(
-                    f"--out {str(out)!r}: holds a dataset of another spec; choose another "
+                    f"{where}: holds a dataset of another spec; choose another "
                     "directory (or remove it) to generate this one"
                 )
+            if io.read_marker(out) is None:  # a dataset of a version before the marker
+                with contextlib.suppress(OSError):
+                    io.write_marker(out, COMMAND)
             return out
-        if any(not p.name.startswith(".") for p in out.iterdir()):  # .lock, temporaries
-            raise DatasetDirError(
-                f"--out {str(out)!r}: is not empty and holds no signatelec dataset; choose an "
-                "empty or new directory"
-            )
-    out.mkdir(parents=True, exist_ok=True)
-    _write_json(
-        spec_path,
-        {"version": __version__, "n_traces": spec.n_traces, "spec": json.loads(spec.to_json())},
-    )
+        why = io.refusal(out, COMMAND, ignore=(LOCK_FILE,))
+        if why is not None:
+            raise DatasetDirError(f"{where}: {why}")
+    created = out.absolute()
+    while not created.parent.exists():  # the first directory this call creates, if any
+        created = created.parent
+    created = None if created.exists() else created
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        io.write_marker(out, COMMAND)
+        io.write_json_atomic(
+            spec_path,
+            {"version": __version__, "n_traces": spec.n_traces, "spec": json.loads(spec.to_json())},
+        )
+    except OSError as exc:
+        if created is not None:
+            shutil.rmtree(created, ignore_errors=True)
+        else:
+            for name in (io.MARKER_FILE, SPEC_FILE):
+                with contextlib.suppress(OSError):
+                    (out / name).unlink()
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO):  # not refused: rerun later
+            raise
+        raise DatasetDirError(
+            f"{where}: cannot write there ({exc.strerror or exc}); nothing was written"
+        ) from None
     return out
 
 
@@ -236,7 +318,7 @@ def write_manifest(spec: Spec, out: Path) -> dict:
         "missing": sorted(expected - set(done)),
         "layout": "regime=<regime>/trace-<id>.parquet, one row per trace, signals as list columns",
     }
-    _write_json(out / MANIFEST_FILE, manifest)
+    io.write_json_atomic(out / MANIFEST_FILE, manifest)
     return manifest
 
 
