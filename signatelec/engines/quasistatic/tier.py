@@ -48,8 +48,8 @@ CPU time) are measured by the accuracy-cost study: ``docs/accuracy_cost/accuracy
 ``quasistatic``.
 
 With ``outputs.energy`` the tier fills ``elastic_j`` (raceway contacts) and ``kinetic_j`` (rigid
-kinematic motion of balls and cage balls or rigid cage); ``work_in_j`` and ``dissipated_j`` are NaN (the
-quasi-static state has no history).
+kinematic motion of balls and cage balls or rigid cage); ``work_in_j`` and ``dissipated_j`` are
+NaN (the quasi-static state has no history).
 
 References
 ----------
