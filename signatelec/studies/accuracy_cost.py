@@ -153,6 +153,7 @@ SETTINGS: tuple[Setting, ...] = (
     ),
     dem("dem cage mass x80 euler dt=1e-6", dt_s=1e-6, cage_mass_scale=80.0, integrator="euler"),
     dem("dem rigid cage dt=1e-7", dt_s=1e-7, effects=_RIGID),
+    dem("dem rigid cage dt=0.5 limit", dt_limit_fraction=0.5, effects=_RIGID),
     dem("dem rigid cage dt=0.9 limit", dt_limit_fraction=0.9, effects=_RIGID),
     dem(
         "dem rigid cage euler dt=0.9 limit",
