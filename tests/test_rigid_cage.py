@@ -179,3 +179,14 @@ def test_a_brisk_spin_up_to_3000_rad_s(run_scene):
     kinematic = scene.bearing.cage_speed_rad_s(3000.0)
     speed = result.steady().cage_body_speed_rad_s.mean()
     assert speed == pytest.approx(kinematic, rel=1e-2)
+
+
+def test_the_tier_counts_the_rigid_cage_kinetic_energy():
+    """The quasi-static tier's kinetic energy adds the rigid cage turning at the kinematic cage
+    speed, I omega_c^2 / 2 (it does not translate), to the balls'."""
+    scene = Scene().with_overrides(energy=True, duration_s=0.0075 + 1e-3)
+    rigid = simulate_quasistatic(scene.with_overrides(cage="rigid")).signals.kinetic_j
+    none = simulate_quasistatic(scene.with_overrides(cage="none")).signals.kinetic_j
+    b = scene.bearing
+    cage = 0.5 * b.rigid_cage_inertia_kg_m2 * b.cage_speed_rad_s(500.0) ** 2
+    assert (rigid - none).to_numpy() == pytest.approx(cage, rel=1e-9)

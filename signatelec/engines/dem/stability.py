@@ -156,7 +156,9 @@ def rigid_cage_bodies(bearing, pocket_stiffness_n_m: float, pocket) -> list:
     Translation: every pocket pressing at once (Z springs on the cage mass, an upper bound: a
     ball-guided cage touches the balls that drive it and those it drives). Rotation: the same Z
     springs at the pitch radius on the polar inertia, i.e. on the mass I / r_p^2.
-    ``pocket``: the BALL_POCKET row of contact_properties (its reduced mass damps the contact).
+    ``pocket``: the BALL_POCKET row of contact_properties (its reduced mass damps the contact);
+    ``pocket_stiffness_n_m``: the tangent stiffness at the cage contacts' force scale
+    (:func:`cage_force_scale_n`: the pockets pass the chain force the cage balls would).
     """
     springs = [(pocket_stiffness_n_m, pocket.reduced_mass_kg)] * bearing.n_balls
     rotation_mass = bearing.rigid_cage_inertia_kg_m2 / bearing.pitch_radius_m**2
