@@ -62,7 +62,7 @@ SCENE_CASES = {
     "integer_for_model": Case(
         "[effects]\ncage = 1\n",
         (),
-        ("effects.cage", "must be one of balls, none (true: balls, false: none)"),
+        ("effects.cage", "must be one of balls, rigid, none (true: balls, false: none)"),
     ),
     "unknown_model": Case(
         "[effects]\nfriction = 'viscous'\n",

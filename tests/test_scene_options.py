@@ -71,5 +71,5 @@ def test_the_kernel_spec_reads_every_kernel_option_and_nothing_else():
     assert flags["ENERGY"] and flags["FRICTION_NONE"]
     # outputs that do not change the kernel share it
     assert KernelSpec.from_scene(scene.with_overrides(electrical=True)) == spec
-    with pytest.raises(ValueError, match="cage = 'rigid'"):
-        KernelSpec(tuple((n, "rigid" if n == "cage" else v) for n, v in spec.choices))
+    with pytest.raises(ValueError, match="cage = 'spokes'"):
+        KernelSpec(tuple((n, "spokes" if n == "cage" else v) for n, v in spec.choices))

@@ -9,7 +9,8 @@ Contact types (seed table 2) are indexed by the constants ``INNER``, ``OUTER``, 
 quantities of one body against a rigid surface) is read here as a cage ball against one of the two
 frictionless cage boundaries; cage balls never touch each other because a rolling ball always
 stands between two of them. ``BALL_BALL`` (steel on steel, frictionless) only exists when the cage
-effect is off.
+effect is off. ``BALL_POCKET`` is a ball in its pocket of the rigid cage (``effects.cage =
+"rigid"``, not in the seed): see :meth:`Bearing.rigid_cage_mass_kg` and :func:`contact_properties`.
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from signatelec.config.constraints import BEARING, MATERIAL, Checker
 
 # Contact-type indices, shared by the kernels, the stability estimate and the tests.
-INNER, OUTER, BALL_CAGE, CAGE_WALL, BALL_BALL = range(5)
-CONTACT_TYPES = ("inner", "outer", "ball_cage", "cage_wall", "ball_ball")
+INNER, OUTER, BALL_CAGE, CAGE_WALL, BALL_BALL, BALL_POCKET = range(6)
+CONTACT_TYPES = ("inner", "outer", "ball_cage", "cage_wall", "ball_ball", "ball_pocket")
 
 STANDARD_GRAVITY_M_S2 = 9.80665
 
@@ -55,7 +56,14 @@ STEEL = Material("steel", 203e9, 0.3, 7850.0)
 #: Polyamide of the cage balls (section 2.2): E_c = 3 GPa, nu_c = 0.3 (PA66 density).
 POLYAMIDE = Material("polyamide", 3e9, 0.3, 1140.0)
 
-MATERIALS = {m.name: m for m in (STEEL, POLYAMIDE)}
+#: Glass-fibre reinforced polyamide 66 (25 % glass), the usual moulded cage material (SKF's
+#: "TN9" cages): E = 8 GPa, density 1320 kg/m^3 (dry, manufacturers' data sheets of PA66-GF25,
+#: e.g. BASF Ultramid A3EG5), nu = 0.35 (typical of glass-filled polyamides).
+PA66_GF25 = Material("PA66-GF25", 8.0e9, 0.35, 1320.0)
+
+MATERIALS = {m.name: m for m in (STEEL, POLYAMIDE, PA66_GF25)}
+#: The Bearing fields that hold a Material.
+MATERIAL_FIELDS = ("ball_material", "cage_material", "rigid_cage_material")
 
 
 @dataclass(frozen=True)
@@ -88,6 +96,14 @@ class Bearing:
     )
     #: Electrical conductivity gamma of the ball steel, eq. 16.
     electrical_conductivity_s_m: float = 5.8e7
+    #: Rigid cage (``effects.cage = "rigid"``): its material and the diametral clearance of a
+    #: ball in its spherical pocket, 2 (R_pocket - R_b). 0.010 in = 0.254 mm: the smallest
+    #: diametral pocket clearance of ball retainers of the larger (non-instrument) bearings, whose
+    #: miniature and instrument bearings go down to 0.0035 in (retainer terminology of cage
+    #: makers, e.g. "Ball pocket" in compraco.com.br, "Gaiolas para rolamentos de esferas"); the
+    #: order of the play the catalogue's cage-ball sizing leaves (signatelec.config.catalogue).
+    rigid_cage_material: Material = PA66_GF25
+    pocket_clearance_m: float = 0.254e-3
 
     def __post_init__(self) -> None:
         validate_bearing(self)
@@ -114,6 +130,38 @@ class Bearing:
     def cage_ball_mass_kg(self) -> float:
         return self.cage_material.density_kg_m3 * 4.0 / 3.0 * math.pi * self.cage_ball_radius_m**3
 
+    # --- rigid cage (effects.cage = "rigid") -------------------------------------------
+    # A ring of rectangular section centred on the pitch circle: axial width the ball diameter
+    # 2 R_b, radial height R_b (between the races, which are R_b from the pitch circle), with Z
+    # spherical pockets of radius R_p = R_b + pocket_clearance_m / 2 cut through it. A pocket
+    # removes the part of its sphere inside the radial slab |r - r_p| <= h/2,
+    # pi (R_p^2 h - h^3 / 12) (the sliver of pocket sphere beyond the ring's faces, 0.1 mm,
+    # is not subtracted twice: ignored). For the seed's 6208: 7.0 g in PA66-GF25.
+    @property
+    def pocket_radius_m(self) -> float:
+        return self.ball_radius_m + 0.5 * self.pocket_clearance_m
+
+    def _rigid_cage_parts(self) -> tuple[float, float, float, float]:
+        """(ring mass before the pockets, mass of one pocket, inner and outer radius)."""
+        h = self.ball_radius_m
+        r_i, r_o = self.pitch_radius_m - 0.5 * h, self.pitch_radius_m + 0.5 * h
+        rho = self.rigid_cage_material.density_kg_m3
+        ring = rho * math.pi * (r_o**2 - r_i**2) * 2.0 * self.ball_radius_m
+        pocket = rho * math.pi * (self.pocket_radius_m**2 * h - h**3 / 12.0)
+        return ring, pocket, r_i, r_o
+
+    @property
+    def rigid_cage_mass_kg(self) -> float:
+        ring, pocket, _, _ = self._rigid_cage_parts()
+        return ring - self.n_balls * pocket
+
+    @property
+    def rigid_cage_inertia_kg_m2(self) -> float:
+        """Polar moment about the bearing axis: the annulus, m (r_o^2 + r_i^2) / 2, less the
+        pockets taken as masses at the pitch radius."""
+        ring, pocket, r_i, r_o = self._rigid_cage_parts()
+        return 0.5 * ring * (r_o**2 + r_i**2) - self.n_balls * pocket * self.pitch_radius_m**2
+
     def cage_speed_rad_s(self, omega_rad_s: float) -> float:
         """Kinematic cage (ball orbit) speed, omega R_inn / (R_inn + R_out), outer ring fixed."""
         return (
@@ -133,7 +181,7 @@ class Bearing:
     # --- serialisation --------------------------------------------------------------
     def to_dict(self) -> dict:
         d = asdict(self)
-        for key in ("ball_material", "cage_material"):
+        for key in MATERIAL_FIELDS:
             material = getattr(self, key)
             # a catalogue material by its name; any other (e.g. a mass-scaled cage, see
             # signatelec.engines.fidelity) as its full table, so that from_dict gives it back
@@ -150,7 +198,7 @@ class Bearing:
                 raise BearingError(
                     f"{section}.{key} = {value!r}: unknown key; allowed: {', '.join(sorted(known))}"
                 )
-            if key in ("ball_material", "cage_material"):
+            if key in MATERIAL_FIELDS:
                 if isinstance(value, dict):
                     value = _material_from_dict(value, f"{section}.{key}")
                 elif isinstance(value, str) and value in MATERIALS:
@@ -213,7 +261,7 @@ def validate_bearing(b: Bearing, section: str = "bearing") -> None:
     )
     for row in BEARING:
         check.check(row, getattr(b, row.key), f"{section}.{row.key}")
-    for mat_key in ("ball_material", "cage_material"):
+    for mat_key in MATERIAL_FIELDS:
         m = getattr(b, mat_key)
         if not isinstance(m, Material):
             check.fail(
@@ -256,7 +304,8 @@ class ContactProperties:
 
 
 def contact_properties(bearing: Bearing) -> tuple[ContactProperties, ...]:
-    """Table 2 of the seed for every contact type, indexed by ``INNER .. BALL_BALL``."""
+    """Table 2 of the seed for every contact type, indexed by ``INNER .. BALL_BALL``, and the
+    rigid cage's ball/pocket contact (``BALL_POCKET``)."""
     radii = raceway_radii(bearing)
     gb = bearing.ball_material.shear_modulus_pa
     gc = bearing.cage_material.shear_modulus_pa
@@ -265,6 +314,23 @@ def contact_properties(bearing: Bearing) -> tuple[ContactProperties, ...]:
     mb, mc = bearing.ball_mass_kg, bearing.cage_ball_mass_kg
     rb, rc = bearing.ball_radius_m, bearing.cage_ball_radius_m
     mu = bearing.friction_coefficient
+    # Ball in its spherical pocket: conformal Hertz contact, 1/R_eq = 1/R_b - 1/R_p (a concave
+    # surface has a negative radius), with the effective modulus of the two materials,
+    # 1/E* = (1 - nu_b^2)/E_b + (1 - nu_p^2)/E_p (K. L. Johnson, Contact Mechanics, 1985,
+    # section 4.2; not the seed's table-2 averages of G and nu, which would give a polyamide
+    # contact nearly steel's stiffness). Hertz holds while the contact radius sqrt(R_eq delta)
+    # stays well below R_b: 0.8 mm at 20 N (steady running at 500 rad/s), 2.5 mm at 590 N (the
+    # 5 ms spin-up to 3000 rad/s).
+    # Written as the (G, nu) pair that physics.contact.hertz_coefficient, 4 G sqrt(R) /
+    # (3 (1 - nu)) = 4/3 E* sqrt(R), turns into it: nu the mean, G = E* (1 - nu).
+    cage = bearing.rigid_cage_material
+    rp = bearing.pocket_radius_m
+    e_star = 1.0 / (
+        (1.0 - nu_b**2) / bearing.ball_material.youngs_modulus_pa
+        + (1.0 - cage.poisson**2) / cage.youngs_modulus_pa
+    )
+    nu_p = 0.5 * (nu_b + cage.poisson)
+    m_cage = bearing.rigid_cage_mass_kg
     return (
         ContactProperties("inner", gb, nu_b, radii["inner"][2], mb, mu),
         ContactProperties("outer", gb, nu_b, radii["outer"][2], mb, mu),
@@ -278,4 +344,12 @@ def contact_properties(bearing: Bearing) -> tuple[ContactProperties, ...]:
         ),
         ContactProperties("cage_wall", gc, nu_c, rc, mc, 0.0),
         ContactProperties("ball_ball", gb, nu_b, 0.5 * rb, 0.5 * mb, 0.0),
+        ContactProperties(
+            "ball_pocket",
+            e_star * (1.0 - nu_p),
+            nu_p,
+            rb * rp / (rp - rb),
+            mb * m_cage / (mb + m_cage),
+            0.0,
+        ),
     )

@@ -284,6 +284,7 @@ BEARING = (
             "dynamic_load_rating_n",
             "inner_ring_mass_kg",
             "electrical_conductivity_s_m",
+            "pocket_clearance_m",
         )
     ),
     Constraint("bearing", "friction_coefficient", NUMBER, 0.0, 2.0, allowed=_BETWEEN),
@@ -324,6 +325,13 @@ BEARING = (
         high=Limit("ball_radius_m"),
         high_open=True,
         allowed="must be smaller than ball_radius_m",
+    ),
+    Constraint(
+        "bearing",
+        "pocket_clearance_m",
+        NUMBER,
+        high=Limit("ball_radius_m"),
+        allowed="must be at most ball_radius_m = {high:g} m (a ball's play in its cage pocket)",
     ),
 )
 

@@ -37,13 +37,14 @@ def chain_force_n(scene) -> float:
 
 def linear_reference_forces_n(scene) -> list[float]:
     """Force at which each contact type's linear law matches Hertz (contact.law_coefficients):
-    Stribeck's load on ball/raceway and ball/ball contacts, the chain force on cage contacts."""
+    Stribeck's load on ball/raceway and ball/ball contacts, the chain force on cage contacts
+    (cage balls and the rigid cage's pockets)."""
     q, chain = stribeck_load_n(scene), chain_force_n(scene)
-    return [q, q, chain, chain, q]
+    return [q, q, chain, chain, q, chain]
 
 
 def scene_law(scene):
-    """Normal-law coefficients (5,) and exponent of a scene (see contact.law_coefficients)."""
+    """Normal-law coefficients (6,) and exponent of a scene (see contact.law_coefficients)."""
     stiffness = scene.numerics.linear_stiffness_n_m or None
     return law_coefficients(
         scene.bearing, scene.effects.contact_law, stiffness, linear_reference_forces_n(scene)

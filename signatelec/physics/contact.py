@@ -231,9 +231,9 @@ def law_coefficients(
 ) -> tuple[np.ndarray, float]:
     """Normal-law coefficients of every contact type and the law's exponent.
 
-    Returns ``(coefficients, exponent)`` with ``coefficients`` of shape (5,), indexed by the
+    Returns ``(coefficients, exponent)`` with ``coefficients`` of shape (6,), indexed by the
     contact types of :mod:`signatelec.config.bearing` (INNER, OUTER, BALL_CAGE, CAGE_WALL,
-    BALL_BALL),
+    BALL_BALL, BALL_POCKET),
     such that the elastic normal force is ``coefficient * delta**exponent``.
 
     - ``hertz``: eq. 6/8 with the table 2 / eqs 12-13 equivalent quantities (exponent 3/2).
@@ -243,7 +243,7 @@ def law_coefficients(
       ball/outer-raceway stiffness; by default it is the Hertz secant stiffness F/delta at
       ``reference_force_n``. Other contact types take the Hertz secant c^{2/3} F^{1/3} at their
       own reference force, so the linear law matches Hertz at the force each contact carries;
-      ``reference_force_n`` is one force for all types or five, one per contact type.
+      ``reference_force_n`` is one force for all types or six, one per contact type.
     """
     from signatelec.config.bearing import INNER, OUTER, contact_properties
 

@@ -13,6 +13,8 @@ seed effect) is compared with each **setting** of the ladder:
 - the DEM with cage-ball mass scaling: the polyamide cage balls, whose lightness sets the
   stability limit, made heavier (a numerical device: they carry no current and ~1 N), so dt can
   grow to the steel balls' limit;
+- the DEM with the rigid cage (``effects.cage = "rigid"``, a 7 g PA66-GF25 ring) instead of the
+  cage balls: another model, not a numerical device, whose limit is the steel balls' own;
 - the fidelity presets of :mod:`signatelec.engines.fidelity`.
 
 Each run covers the set-up phases, ``SETTLE_S`` for the spin-up transient, then
@@ -110,6 +112,10 @@ def _law(name: str) -> tuple[tuple[str, str], ...]:
     return (("contact_law", name),)
 
 
+#: The rigid cage model instead of the seed's cage balls, the paper's steel and polyamide physics
+#: otherwise (no mass scaling): its 7 g ring leaves dt at the steel balls' own limit.
+_RIGID = (("cage", "rigid"),)
+
 REFERENCE = dem("reference dt=1e-8", dt_s=REFERENCE_DT_S)
 
 SETTINGS: tuple[Setting, ...] = (
@@ -146,6 +152,15 @@ SETTINGS: tuple[Setting, ...] = (
         for fraction in (0.5, 0.75, 0.9)
     ),
     dem("dem cage mass x80 euler dt=1e-6", dt_s=1e-6, cage_mass_scale=80.0, integrator="euler"),
+    dem("dem rigid cage dt=1e-7", dt_s=1e-7, effects=_RIGID),
+    dem("dem rigid cage dt=0.5 limit", dt_limit_fraction=0.5, effects=_RIGID),
+    dem("dem rigid cage dt=0.9 limit", dt_limit_fraction=0.9, effects=_RIGID),
+    dem(
+        "dem rigid cage euler dt=0.9 limit",
+        dt_limit_fraction=0.9,
+        integrator="euler",
+        effects=_RIGID,
+    ),
 )
 
 QUICK_SCENES = (SCENES[3],)

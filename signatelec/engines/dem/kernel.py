@@ -12,8 +12,10 @@ arrays [body, xy]: rows 0..Z-1 the balls, Z..2Z-1 the cage balls (cage ball j si
 j and ball (j + 1) % Z), row 2Z the inner ring. The outer ring is fixed, centred at the origin;
 its race radius follows the clearance phase (seed eq. 14). Contact forces ``s.fcon`` (Z, 6),
 [ball, kind]: 0 inner normal, 1 outer normal, 2 inner tangential, 3 outer tangential (positive
-along t = perp(n)), 4 contact with the next body on the pitch circle (cage ball j, or ball j+1
-without cage), 5 contact of cage ball j with ball j+1. Every array is float64 unless stated;
+along t = perp(n)), 4 contact with the next body on the pitch circle (cage ball j, ball j+1
+without cage, or ball j's pocket of the rigid cage), 5 contact of cage ball j with ball j+1.
+With the rigid cage (CAGE_RIGID) rows Z..2Z-1 hold its coordinates: row Z the centre (x, y), row
+Z+1 column 0 the angle theta of pocket 0 (records.py). Every array is float64 unless stated;
 nothing is allocated in the time loop.
 
 Integrators: velocity Verlet (2nd order; dissipative forces take the predicted velocity
@@ -24,6 +26,7 @@ v + a dt, which keeps 2nd order) or symplectic Euler (1st order, v then x).
 # --- kernel spec: build.specialise rewrites this block from a KernelSpec ----------------------
 # (here: the flags this source reads, at the seed scene's values)
 CAGE_BALLS = True
+CAGE_RIGID = False
 CAGE_NONE = False
 FRICTION_COULOMB = True
 DAMPING_CRITICAL = True
@@ -35,6 +38,8 @@ ENERGY = False
 INTEGRATOR_VERLET = True
 # --- end of kernel spec -----------------------------------------------------------------------
 # fmt: on
+
+import math
 
 from numba import njit
 
@@ -197,6 +202,8 @@ def forces(t, p, s, acc, step):
             wsum = mi * vel[ring, 1]
             for k in range(z):
                 wsum += mb * vel[k, 1] + mc * vel[z + k, 1]
+            if CAGE_RIGID:
+                wsum += p.rigid_cage_mass_kg * vel[z, 1]
             work += -g * wsum * dt
     inv_ib = 1.0 / p.ball_inertia_kg_m2
 
@@ -348,6 +355,59 @@ def forces(t, p, s, acc, step):
                     fcon[j, 4 + side] = 0.0
             acc[c, 0] = cage_fx * inv_mc
             acc[c, 1] = cage_fy * inv_mc
+    if CAGE_RIGID:
+        # One rigid ring guided by the balls: centre (x, y) in row z, angle theta in row z + 1.
+        # Pocket k is a sphere of radius R_b + gap centred at c + r_p u_k, u_k the unit vector
+        # at angle theta + 2 pi k / Z from -y (rotated from u_0 pocket by pocket: no trig in the
+        # loop). Ball k touches it when its centre is more than the gap from the pocket centre:
+        # conformal Hertz contact of type 5 (config.bearing.contact_properties), frictionless
+        # like every cage contact of the seed (table 2); the force passes through the pocket
+        # centre, so its torque about the cage centre is r_p u_k x F.
+        gap = p.pocket_gap_m
+        step_c = p.pocket_step_cos
+        step_s = p.pocket_step_sin
+        ccx = pos[z, 0]
+        ccy = pos[z, 1]
+        vcx = vel[z, 0]
+        vcy = vel[z, 1]
+        theta = pos[z + 1, 0]
+        wc = vel[z + 1, 0]
+        ux = math.sin(theta)
+        uy = -math.cos(theta)
+        cage_fx = 0.0
+        cage_fy = -p.rigid_cage_mass_kg * g
+        cage_torque = 0.0
+        for k in range(z):
+            ox = rp * ux
+            oy = rp * uy
+            dx = pos[k, 0] - (ccx + ox)
+            dy = pos[k, 1] - (ccy + oy)
+            d2 = dx * dx + dy * dy
+            if d2 > gap * gap:
+                inv = rsqrt_warm(d2, roots, k, R_SIDE0)
+                nx = dx * inv
+                ny = dy * inv
+                # closing: ball centre away from the pocket centre (a cage point: v_c + w x r)
+                vclose = (vel[k, 0] - vcx + wc * oy) * nx + (vel[k, 1] - vcy - wc * ox) * ny
+                fn, rd, qd, dloss, de = normal_contact(
+                    d2 * inv - gap, vclose, 5, ball_limit, k, p, s, k, R_SIDE0 + 1, step
+                )
+                loss += dloss
+                elastic += de
+                acc[k, 0] -= fn * nx
+                acc[k, 1] -= fn * ny
+                cage_fx += fn * nx
+                cage_fy += fn * ny
+                cage_torque += fn * (ox * ny - oy * nx)
+                fcon[k, 4] = fn
+            else:
+                fcon[k, 4] = 0.0
+            fcon[k, 5] = 0.0
+            ux, uy = ux * step_c - uy * step_s, uy * step_c + ux * step_s
+        acc[z, 0] = cage_fx / p.rigid_cage_mass_kg
+        acc[z, 1] = cage_fy / p.rigid_cage_mass_kg
+        acc[z + 1, 0] = cage_torque / p.rigid_cage_inertia_kg_m2
+        acc[z + 1, 1] = 0.0
     if CAGE_NONE:
         reach = 2.0 * rb
         for k in range(z):

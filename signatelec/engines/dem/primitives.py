@@ -104,10 +104,13 @@ def coulomb_limit(tangential_force_n, normal_force_n, friction_coefficient):
 
 @njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
 def kinetic_energy(p, s):
-    """Kinetic energy of every body of state ``s``, J."""
+    """Kinetic energy of every body of state ``s``, J (the cage balls' or the rigid cage's: the
+    other's mass is 0)."""
     z = s.spin.shape[0]
     vel = s.vel
     e = 0.5 * p.inner_ring_mass_kg * (vel[2 * z, 0] ** 2 + vel[2 * z, 1] ** 2)
+    e += 0.5 * p.rigid_cage_mass_kg * (vel[z, 0] ** 2 + vel[z, 1] ** 2)
+    e += 0.5 * p.rigid_cage_inertia_kg_m2 * vel[z + 1, 0] ** 2
     for k in range(z):
         e += 0.5 * p.ball_mass_kg * (vel[k, 0] ** 2 + vel[k, 1] ** 2)
         e += 0.5 * p.ball_inertia_kg_m2 * s.spin[k] ** 2

@@ -2,10 +2,13 @@
 
 Every array is float64 unless stated; nothing here is allocated in the time loop. Z balls, N = 2 Z
 + 1 bodies. Bodies, [body, xy]: rows 0..Z-1 the balls, Z..2Z-1 the cage balls (cage ball j sits
-between ball j and ball (j + 1) % Z), row 2Z the inner ring. The outer ring is fixed, centred at
-the origin. Contact types index the five-element parameter fields: 0 ball/inner raceway, 1
-ball/outer raceway, 2 ball/cage ball, 3 cage ball/cage boundary, 4 ball/ball
-(signatelec.config.bearing INNER, OUTER, BALL_CAGE, CAGE_WALL, BALL_BALL).
+between ball j and ball (j + 1) % Z), row 2Z the inner ring. With the rigid cage, rows Z..2Z-1
+hold its coordinates instead: row Z its centre (x, y), row Z + 1 its angle theta (column 0; the
+angle of pocket 0 from -y, like a ball's), rows Z + 2.. stay zero; the time loop integrates them
+like every other row. The outer ring is fixed, centred at the origin. Contact types index the
+six-element parameter fields: 0 ball/inner raceway, 1 ball/outer raceway, 2 ball/cage ball, 3
+cage ball/cage boundary, 4 ball/ball, 5 ball/rigid-cage pocket (signatelec.config.bearing
+INNER, OUTER, BALL_CAGE, CAGE_WALL, BALL_BALL, BALL_POCKET).
 
 The namedtuple classes live in this importable module so that numba's on-disk cache finds the
 same types in every process.
@@ -29,7 +32,12 @@ PARAMS = np.dtype(
         ("pitch_radius_m", "f8"),
         ("ball_mass_kg", "f8"),
         ("ball_inertia_kg_m2", "f8"),
-        ("cage_ball_mass_kg", "f8"),
+        ("cage_ball_mass_kg", "f8"),  # 0 without cage balls
+        ("rigid_cage_mass_kg", "f8"),  # 0 without the rigid cage
+        ("rigid_cage_inertia_kg_m2", "f8"),
+        ("pocket_gap_m", "f8"),  # R_pocket - R_b: free play of a ball centre in its pocket
+        ("pocket_step_cos", "f8"),  # cos, sin of 2 pi / Z, the angle between pockets
+        ("pocket_step_sin", "f8"),
         ("inner_ring_mass_kg", "f8"),
         ("radial_load_n", "f8"),
         ("omega_rad_s", "f8"),
@@ -40,9 +48,9 @@ PARAMS = np.dtype(
         ("friction_coefficient", "f8"),
         ("max_overlap_fraction", "f8"),  # a run stops beyond this overlap / body radius
         # by contact type: F = c delta^{3/2} (Hertz, Harris) or c delta (linear)
-        ("normal_coefficient", "f8", (5,)),
+        ("normal_coefficient", "f8", (6,)),
         # by contact type: C_n = factor delta^{1/4} (Hertz, eq. 5 with eq. 9) or factor (linear)
-        ("normal_damping_factor", "f8", (5,)),
+        ("normal_damping_factor", "f8", (6,)),
         # inner, outer raceway: K_t = factor sqrt(delta) (Mindlin, eq. 7) or factor (linear)
         ("tangential_stiffness_factor", "f8", (2,)),
         # inner, outer raceway: C_t = factor delta^{1/4} (Hertz) or factor (linear), eq. 5
@@ -61,8 +69,8 @@ def new_parameters() -> np.void:
 OK, OVERLAP, NONFINITE = 0, 1, 2
 #: Warm-started roots per contact, ``roots`` (Z, 20), [ball, slot]: 0-1 inner raceway (distance,
 #: overlap), 2-3 outer raceway, 4-5 cage ball j on its boundaries, 6-7 cage ball j on ball j (or
-#: ball k on ball k + 1 without cage), 8-9 cage ball j on ball j + 1; slot + 10 holds an overlap
-#: root of the step before.
+#: ball k on ball k + 1 without cage, or ball k in its pocket of the rigid cage), 8-9 cage ball j
+#: on ball j + 1; slot + 10 holds an overlap root of the step before.
 R_INNER, R_OUTER, R_WALL, R_SIDE0, R_SIDE1 = 0, 2, 4, 6, 8
 
 
@@ -80,7 +88,8 @@ class State(NamedTuple):
     roots: np.ndarray  # (Z, 20) warm-started roots, see R_INNER ...
     # (Z, 6) contact forces, N, [ball, kind]: 0 inner normal, 1 outer normal, 2 inner tangential,
     # 3 outer tangential (positive along t = perp(n)), 4 contact with the next body on the pitch
-    # circle (cage ball j, or ball j + 1 without cage), 5 contact of cage ball j with ball j + 1
+    # circle (cage ball j, or ball j + 1 without cage, or ball j's pocket of the rigid cage, on
+    # the ball), 5 contact of cage ball j with ball j + 1
     fcon: np.ndarray
     # (4,) at the last force evaluation: outer race radius (m), applied F_r (N), inner-ring
     # speed (rad/s), drive torque on the inner ring (N m)

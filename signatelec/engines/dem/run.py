@@ -42,6 +42,7 @@ _CONTACT_NAMES = {
     2: "ball/cage overlap",
     3: "cage-boundary overlap",
     4: "ball/ball overlap",
+    5: "ball/pocket overlap",
     -1: "position or velocity (not finite)",
 }
 
@@ -61,7 +62,14 @@ def kernel_parameters(scene: Scene) -> np.void:
     p["pitch_radius_m"] = b.pitch_radius_m
     p["ball_mass_kg"] = b.ball_mass_kg
     p["ball_inertia_kg_m2"] = b.ball_inertia_kg_m2
-    p["cage_ball_mass_kg"] = b.cage_ball_mass_kg
+    cage = scene.effects.cage
+    p["cage_ball_mass_kg"] = b.cage_ball_mass_kg if cage == "balls" else 0.0
+    if cage == "rigid":
+        p["rigid_cage_mass_kg"] = b.rigid_cage_mass_kg
+        p["rigid_cage_inertia_kg_m2"] = b.rigid_cage_inertia_kg_m2
+        p["pocket_gap_m"] = b.pocket_radius_m - b.ball_radius_m
+    p["pocket_step_cos"] = math.cos(2.0 * math.pi / b.n_balls)
+    p["pocket_step_sin"] = math.sin(2.0 * math.pi / b.n_balls)
     p["inner_ring_mass_kg"] = b.inner_ring_mass_kg
     p["radial_load_n"] = op.radial_load_n
     p["omega_rad_s"] = op.omega_rad_s
@@ -93,7 +101,7 @@ def kernel_parameters(scene: Scene) -> np.void:
 
 def initial_state(scene: Scene) -> State:
     """Balls and cage balls on the pitch circle, ball 0 at ``initial_ball_angle_rad`` from the
-    load direction, everything at rest."""
+    load direction, everything at rest; the rigid cage centred, each pocket on its ball."""
     b = scene.bearing
     z = b.n_balls
     psi = scene.operating.initial_ball_angle_rad + 2.0 * math.pi * np.arange(z) / z
@@ -101,7 +109,10 @@ def initial_state(scene: Scene) -> State:
     pos = np.zeros((2 * z + 1, 2))
     rp = b.pitch_radius_m
     pos[:z, 0], pos[:z, 1] = rp * np.sin(psi), -rp * np.cos(psi)
-    pos[z : 2 * z, 0], pos[z : 2 * z, 1] = rp * np.sin(psi_c), -rp * np.cos(psi_c)
+    if scene.effects.cage == "rigid":
+        pos[z + 1, 0] = psi[0]  # the cage angle; its centre (row z) at the origin
+    else:
+        pos[z : 2 * z, 0], pos[z : 2 * z, 1] = rp * np.sin(psi_c), -rp * np.cos(psi_c)
     return new_state(pos)
 
 
@@ -152,6 +163,12 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
             "max_ball_load_n": fcon[:, :, 0].max(axis=1),
         }
     )
+    if scene.effects.cage == "rigid":
+        signals["cage_x_m"] = pos[:, z, 0]
+        signals["cage_y_m"] = pos[:, z, 1]
+        signals["cage_angle_rad"] = pos[:, z + 1, 0]
+        signals["cage_body_speed_rad_s"] = vel[:, z + 1, 0]
+        balls["pocket_force_n"] = fcon[:, :, 4].ravel()
     if scene.outputs.energy:
         signals["work_in_j"] = energy[:, 0]
         signals["dissipated_j"] = energy[:, 1]

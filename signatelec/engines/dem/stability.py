@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from signatelec.config.bearing import (
     BALL_BALL,
     BALL_CAGE,
+    BALL_POCKET,
     CAGE_WALL,
     INNER,
     OUTER,
@@ -79,7 +80,10 @@ def stability_limit(scene) -> StabilityLimit:
     q_pre = preload_ball_force_n(coef, n, scene.operating.clearance_m)
     fs = 2.0 * (scene.operating.radial_load_n + q_pre) + fc + 1.0
     f_cage = cage_force_scale_n(scene, fs)
-    k = [_tangent(coef[i], n, fs if i in (INNER, OUTER, BALL_BALL) else f_cage) for i in range(5)]
+    k = [
+        _tangent(coef[i], n, fs if i in (INNER, OUTER, BALL_BALL) else f_cage)
+        for i in range(len(coef))
+    ]
     damp = 1.0 if e.damping == "critical" else 0.0
 
     candidates = []
@@ -93,11 +97,12 @@ def stability_limit(scene) -> StabilityLimit:
         dt = damped_step_limit(omega, zeta, scene.numerics.integrator)
         candidates.append(StabilityLimit(dt, name, omega, zeta, fs))
 
-    neighbours = (
-        [(k[BALL_CAGE], props[BALL_CAGE].reduced_mass_kg)] * 2
-        if e.cage == "balls"
-        else [(k[BALL_BALL], props[BALL_BALL].reduced_mass_kg)] * 2
-    )
+    if e.cage == "balls":
+        neighbours = [(k[BALL_CAGE], props[BALL_CAGE].reduced_mass_kg)] * 2
+    elif e.cage == "rigid":
+        neighbours = [(k[BALL_POCKET], props[BALL_POCKET].reduced_mass_kg)]  # one pocket side
+    else:
+        neighbours = [(k[BALL_BALL], props[BALL_BALL].reduced_mass_kg)] * 2
     race = [(k[INNER], mb), (k[OUTER], mb)]
     friction = e.friction == "coulomb" and b.friction_coefficient > 0.0
     if friction:
@@ -137,6 +142,27 @@ def stability_limit(scene) -> StabilityLimit:
             + [(k[CAGE_WALL], props_w.reduced_mass_kg)],
             mc,
         )
+    if e.cage == "rigid":
+        for name, springs, mass in rigid_cage_bodies(b, k[BALL_POCKET], props[BALL_POCKET]):
+            body(name, springs, mass)
     n_inner = max(2, b.n_balls // 2 + 1)
     body("inner ring", [(k[INNER], mb)] * n_inner, b.inner_ring_mass_kg)
     return min(candidates, key=lambda c: c.dt_limit_s)
+
+
+def rigid_cage_bodies(bearing, pocket_stiffness_n_m: float, pocket) -> list:
+    """The rigid cage as bodies of the limit: (name, [(stiffness, reduced mass), ...], mass).
+
+    Translation: every pocket pressing at once (Z springs on the cage mass, an upper bound: a
+    ball-guided cage touches the balls that drive it and those it drives). Rotation: the same Z
+    springs at the pitch radius on the polar inertia, i.e. on the mass I / r_p^2.
+    ``pocket``: the BALL_POCKET row of contact_properties (its reduced mass damps the contact);
+    ``pocket_stiffness_n_m``: the tangent stiffness at the cage contacts' force scale
+    (:func:`cage_force_scale_n`: the pockets pass the chain force the cage balls would).
+    """
+    springs = [(pocket_stiffness_n_m, pocket.reduced_mass_kg)] * bearing.n_balls
+    rotation_mass = bearing.rigid_cage_inertia_kg_m2 / bearing.pitch_radius_m**2
+    return [
+        ("rigid cage (translation)", springs, bearing.rigid_cage_mass_kg),
+        ("rigid cage (rotation)", springs, rotation_mass),
+    ]

@@ -36,7 +36,8 @@ What the tier leaves out (everything dynamic):
 - slip: balls roll without slip, so the cage speed is exactly kinematic and the tangential
   forces are zero (``inner_tangential_n = outer_tangential_n = 0``, ``drive_torque_n_m = 0``);
   friction plays no part;
-- cage dynamics: the balls stay evenly spaced (the cage balls are not simulated; with the cage
+- cage dynamics: the balls stay evenly spaced (the cage balls or the rigid cage are not
+  simulated, only their kinematic motion for the kinetic energy; with the cage
   off, the DEM's balls may bunch and touch, the tier's never do), the tangential component of a
   ball's weight is ignored;
 - the phase of the trace: the DEM's balls slip a little during spin-up, so over long runs its
@@ -47,8 +48,8 @@ CPU time) are measured by the accuracy-cost study: ``docs/accuracy_cost/accuracy
 ``quasistatic``.
 
 With ``outputs.energy`` the tier fills ``elastic_j`` (raceway contacts) and ``kinetic_j`` (rigid
-kinematic motion of balls and cage balls); ``work_in_j`` and ``dissipated_j`` are NaN (the
-quasi-static state has no history).
+kinematic motion of balls and cage balls or rigid cage); ``work_in_j`` and ``dissipated_j`` are
+NaN (the quasi-static state has no history).
 
 References
 ----------
@@ -252,11 +253,16 @@ def _energy_columns(scene: Scene, eq: RingSolution, radius, omega_c, spin) -> di
     energy = NORMAL_LAWS[float(n)].energy
     elastic = energy(eq.inner_overlap_m, coef[INNER]) + energy(eq.outer_overlap_m, coef[OUTER])
     kinetic = 0.5 * b.ball_mass_kg * (omega_c * radius) ** 2 + 0.5 * b.ball_inertia_kg_m2 * spin**2
-    cage = 0.5 * b.cage_ball_mass_kg * (omega_c * b.pitch_radius_m) ** 2 * b.n_balls
+    if scene.effects.cage == "balls":
+        cage = 0.5 * b.cage_ball_mass_kg * (omega_c * b.pitch_radius_m) ** 2 * b.n_balls
+    elif scene.effects.cage == "rigid":
+        cage = 0.5 * b.rigid_cage_inertia_kg_m2 * omega_c**2
+    else:
+        cage = 0.0
     nan = np.full(radius.shape[0], np.nan)
     return {
         "work_in_j": nan,
         "dissipated_j": nan.copy(),
         "elastic_j": elastic.sum(axis=1),
-        "kinetic_j": kinetic.sum(axis=1) + (cage if scene.effects.cage == "balls" else 0.0),
+        "kinetic_j": kinetic.sum(axis=1) + cage,
     }
