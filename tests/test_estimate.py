@@ -358,7 +358,8 @@ def test_uncertain_regime_is_said(small_model, monkeypatch, probabilities, confi
         return out
 
     monkeypatch.setattr(model, "predict_one", split)
-    trace = prepare_trace(*read_trace(EXAMPLE), 500.0)
+    t, r, _ = read_trace(EXAMPLE)
+    trace = prepare_trace(t, r, 500.0)
     result = estimate(trace, 500.0, model)
     text = format_estimate(result)
     assert result["regime_confident"] is confident
