@@ -11,8 +11,8 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
    :data:`STEP_SIGMAS` times the block-to-block noise (robust, from first differences) and
    more than :data:`DRIFT_ALLOWANCE` of the level (five times the largest drift of the training
    traces, a random walk of 0.1 % at the end of the window). The steady part starts after the
-   last departing block; it must span :data:`~signatelec.measurement.traces.MIN_BALL_PASSES`
-   and keep its linear trend within :data:`TREND_ALLOWANCE` of the level (beyond the noise).
+   last departing block and must span :data:`~signatelec.measurement.traces.MIN_BALL_PASSES`
+   (a trend moves the early blocks off the final level: it is cut off or refused alike).
    A simulation's set-up (the ``phase`` column of ``signatelec simulate``'s
    ``signals.parquet``) is dropped earlier, by
    :func:`~signatelec.measurement.traces.prepare_trace`;
@@ -42,10 +42,6 @@ from signatelec.physics.kinematics import expected_ball_pass_hz
 STEP_SIGMAS = 10.0
 #: ... if it is also off by more than this share of the level.
 DRIFT_ALLOWANCE = 0.005
-#: Largest linear trend over the kept part, relative to the level, beyond TREND_SIGMAS standard
-#: errors of the fitted trend.
-TREND_ALLOWANCE = 0.01
-TREND_SIGMAS = 4.0
 #: A level within this factor of the trained range is extrapolated with a note (R ~
 #: F_r^(-4/3), seed section 3: 1.25 in R is 1.18 in F_r, along Hertz's law).
 LEVEL_MARGIN = 1.25
@@ -87,7 +83,7 @@ def trim_transient(trace: Trace, omega_rad_s: float) -> tuple[Trace, str | None]
         start = (last + 1) * n_block
         kept_passes = (r.size - start) / fs * f_bp
         ratio = means[worst] / level if level else np.inf
-        step = f"{ratio - 1:+.1%}" if abs(ratio - 1) < 1 else f"x{ratio:.3g}"
+        step = f"{ratio - 1:+.1%}" if ratio < 2 else f"{ratio:,.0f}x"
         if kept_passes < MIN_BALL_PASSES:
             raise TraceError(
                 f"{where}: level not steady: off the final level by {step} at t = "
@@ -104,20 +100,6 @@ def trim_transient(trace: Trace, omega_rad_s: float) -> tuple[Trace, str | None]
             time_s=trace.time_s[start:] - trace.time_s[start],
             resistance_ohm=r[start:],
             repairs=(*trace.repairs, note),
-        )
-    r = trace.resistance_ohm
-    level = abs(float(r.mean()))
-    t = np.arange(r.size) - 0.5 * (r.size - 1)
-    slope = float(t @ (r - r.mean())) / float(t @ t) if r.size > 2 else 0.0
-    resid = r - r.mean() - slope * t
-    # the trend over the trace and its standard error on white noise, relative to the level
-    trend = slope * r.size / level if level else 0.0
-    se = float(resid.std()) * np.sqrt(12.0 / max(r.size, 1)) / level if level else 0.0
-    if abs(trend) - TREND_SIGMAS * se > TREND_ALLOWANCE:
-        raise TraceError(
-            f"{where}: level not steady: it trends by {trend:+.1%} over "
-            f"{r.size / fs * 1e3:.4g} ms (at most {TREND_ALLOWANCE:.0%} is drift the model "
-            "knows); cut the trace to its steady part"
         )
     return trace, note
 
