@@ -212,6 +212,7 @@ def _with_header(src: Path, dst: Path, **changes) -> Path:
         ({"scikit_learn": "0.20.4"}, "scikit-learn 0.20.4"),
         ({"signatelec": "9.1.0"}, "signatelec 9.1.0"),
         ({"feature_set": 0}, "feature set 0"),
+        ({"format_version": 2}, "model format 2"),  # no training domain in it
     ],
 )
 def test_model_refused_across_versions(small_model, tmp_path, capsys, changes, expected):
