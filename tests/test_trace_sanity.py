@@ -340,3 +340,33 @@ def test_healthy_traces_not_refused():
                     screen_trace(prepare_trace(trace.time_s, r, omega * factor), omega * factor)
                 refused += 1
     assert strong >= 20 and refused == 2 * strong
+
+
+def test_train_skips_traces_the_layer_refuses(tmp_path, capsys):
+    """`signatelec train` on measured traces skips (and says) those whose ball-pass line
+    contradicts their speed label; the model stores the trained level range."""
+    from signatelec.estimation.persistence import load_model
+
+    r = _example()["resistance_ohm"].to_numpy()
+    rows = [
+        {
+            "trace_id": i,
+            "sample_rate_hz": 20000.0,
+            "omega_rad_s": 700.0 if i == 3 else 500.0,  # trace 3: a wrong speed label
+            "radial_load_n": 7000.0 * (1 + 0.05 * i),
+            "epsilon": 0.45,
+            "clearance_m": 8e-6,
+            "regime": "clearance" if i % 2 else "zero",
+            "resistance_ohm": r * (1 - 0.05 * i),
+        }
+        for i in range(13)
+    ]
+    traces = tmp_path / "traces.parquet"
+    pd.DataFrame(rows).to_parquet(traces)
+    model = tmp_path / "t.model"
+    assert _run(["train", str(traces), "--out", str(model)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "skipped 1 traces" in err[0] and "trace 3" in err[0], err
+    assert "expected 573.6 Hz for --omega 700" in err[0]
+    lo, hi = load_model(model).domain.level_range_ohm
+    assert lo == pytest.approx(r.mean() * 0.4, rel=0.01) and hi == pytest.approx(r.mean(), rel=0.01)

@@ -19,13 +19,13 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
 2. :func:`check_level`, given the model's trained level range: a mean resistance outside it by
    more than :data:`LEVEL_MARGIN` is refused, naming the unit mix-up when a factor of 1000
    (or 10^6) brings it inside ("level 2.5 Ohm is 1000x the trained range 1.12-9.79 mOhm: is
-   the column in mOhm?"); within the margin it is a note;
+   the column in mOhm?", the default model's range); within the margin it is a note;
 3. :func:`~signatelec.measurement.ripple.find_ripple`: the ball-pass line in the data, with its
    significance, near the frequency the speed predicts. A line elsewhere (a wrong ``--omega``)
    and a constant trace are refused here; a trace without any line is passed on with the
    finding, for the model's domain to judge (:mod:`signatelec.estimation.estimate`): a running
    bearing whose load-zone edge sits on a zero of the ripple's first harmonic shows no line at
-   0.2 % noise over 50 ms in 17 % of held-out runs, so that alone cannot refuse a trace.
+   0.2 % noise over 50 ms in 17 % of held-out windows, so that alone cannot refuse a trace.
 """
 
 from __future__ import annotations
@@ -60,15 +60,15 @@ class Screening:
     notes: tuple[str, ...] = ()
 
 
-def trim_transient(trace: Trace, omega_rad_s: float) -> tuple[Trace, str | None]:
-    """The steady part of a trace and a one-line note when something was cut (module rules);
-    TraceError when no steady part is long enough."""
+def trim_transient(trace: Trace, omega_rad_s: float) -> Trace:
+    """The steady part of a trace (module rules), what was cut said in one line of its
+    ``repairs``; TraceError when no steady part is long enough."""
     r, fs = trace.resistance_ohm, trace.sample_rate_hz
     f_bp = expected_ball_pass_hz(omega_rad_s)
     n_block = max(int(round(fs / f_bp)), 1)
     n = r.size // n_block
     if n < 4:
-        return trace, None
+        return trace
     means = r[: n * n_block].reshape(n, n_block).mean(axis=1)
     level = float(np.median(means[n // 2 :]))
     diffs = np.diff(means)
@@ -76,7 +76,6 @@ def trim_transient(trace: Trace, omega_rad_s: float) -> tuple[Trace, str | None]
     allowed = max(STEP_SIGMAS * noise, DRIFT_ALLOWANCE * abs(level))
     off = np.flatnonzero(np.abs(means - level) > allowed)
     where = trace.source
-    note = None
     if off.size:
         last = int(off[-1])
         worst = int(off[np.argmax(np.abs(means[off] - level))])
@@ -101,7 +100,7 @@ def trim_transient(trace: Trace, omega_rad_s: float) -> tuple[Trace, str | None]
             resistance_ohm=r[start:],
             repairs=(*trace.repairs, note),
         )
-    return trace, note
+    return trace
 
 
 def _ohm(value: float, unit: str | None = None) -> str:
@@ -141,7 +140,7 @@ def screen_trace(
 ) -> Screening:
     """The sanity layer (module docstring): trimmed trace, ripple and notes, or TraceError.
     ``level_range_ohm``: the model's trained level range, checked after the trimming."""
-    trace, _ = trim_transient(trace, omega_rad_s)
+    trace = trim_transient(trace, omega_rad_s)
     notes = []
     if level_range_ohm is not None:
         level = float(np.mean(trace.resistance_ohm))
