@@ -146,6 +146,23 @@ def test_white_noise_refused(model_file, tmp_path, capsys, name, expected):
     _refused(code, err, expected)
 
 
+def test_no_line_answered_without_confidence(model_file, tmp_path, capsys):
+    """0.2 % white noise at the example's level looks like a running bearing whose load-zone
+    edge sits on a zero of the ripple (no line within the noise, features like the training
+    traces'): answered, with a warning that the speed is unchecked and no confident regime."""
+    rng = np.random.default_rng(4)
+    r = 2.5e-3 * (1 + 0.002 * rng.standard_normal(len(_example())))
+    out = tmp_path / "e.json"
+    code, text, err = _estimate(
+        capsys, _write(tmp_path, "quiet", r), 500.0, model_file, "--out", str(out)
+    )
+    assert code == 0, err
+    assert "warning: no ball-pass ripple found near 409.7 Hz" in text
+    res = json.loads(out.read_text())
+    assert res["trace"]["ripple"] == "none" and res["regime_confident"] is False
+    assert res["in_domain_score"] > 1e-3
+
+
 # --- the level's unit ----------------------------------------------------------------------------
 
 
