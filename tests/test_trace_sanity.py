@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from test_estimate import EXAMPLE, _example, _run  # the command line as the estimate tests run it
 from threadpoolctl import threadpool_limits
 
-from signatelec.cli import main
 from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE, Domain, domain_features
 from signatelec.estimation.persistence import save_model
 from signatelec.estimation.training import DEFAULT_TABLE, MODEL_FEATURES, train_default_model
@@ -29,8 +29,6 @@ from signatelec.measurement.sanity import screen_trace
 from signatelec.measurement.traces import TraceError, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
-ROOT = Path(__file__).resolve().parents[1]
-EXAMPLE = ROOT / "datasets" / "example_trace.csv"
 #: The example's estimate with the default model (README, "Load-state estimation").
 EXAMPLE_LOAD_N = 6929.0
 
@@ -42,18 +40,6 @@ def model_file(tmp_path_factory):
     with threadpool_limits(1):
         save_model(train_default_model(), path)
     return path
-
-
-def _run(args: list[str]) -> int:
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
-def _example() -> pd.DataFrame:
-    return pd.read_csv(EXAMPLE, comment="#")
 
 
 def _estimate(capsys, path, omega, model_file, *extra) -> tuple[int, str, list[str]]:
