@@ -467,8 +467,11 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
     """Estimate F_r, epsilon, clearance and regime from a resistance trace (CSV or Parquet).
 
     The trace needs at least 5 ball passes; isolated missing samples, small gaps and uneven
-    sampling are repaired, anything else is refused (exit 2).
+    sampling are repaired and a set-up transient is cut off; a trace whose ball-pass ripple is
+    not at the frequency --omega predicts, whose level is outside the model's range or whose
+    features are unlike its training traces is refused (exit 2).
     """
+    from signatelec.estimation.domain import DomainError
     from signatelec.estimation.estimate import estimate as run_estimate
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.estimation.report import format_estimate
@@ -483,8 +486,8 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
     if problem:
         raise InputError(f"trace {trace_file!r}: {problem}")
     try:
-        t, r = read_trace(trace_file, time_column, resistance_column)
-        trace = prepare_trace(t, r, omega_rad_s, source=f"trace {trace_file!r}")
+        t, r, phase = read_trace(trace_file, time_column, resistance_column)
+        trace = prepare_trace(t, r, omega_rad_s, source=f"trace {trace_file!r}", phase=phase)
     except TraceError as exc:
         raise InputError(str(exc)) from None
     try:
@@ -494,7 +497,10 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
             model = default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
     except ModelError as exc:
         raise InputError(str(exc)) from None
-    result = run_estimate(trace, omega_rad_s, model)
+    try:
+        result = run_estimate(trace, omega_rad_s, model)
+    except (TraceError, DomainError) as exc:
+        raise InputError(str(exc)) from None
     if out is not None:
         try:
             write_estimate(result, out)
@@ -514,7 +520,10 @@ def train(dataset, out, quiet):
     """Train the load-state estimator on DATASET and write the model file.
 
     DATASET: a directory written by `signatelec generate` (each measured trace gives one row of
-    features) or a Parquet feature table with labels (pipelines/load_state.py writes one).
+    features; traces whose ball-pass ripple contradicts their speed label, or whose level is
+    not steady, are skipped) or a Parquet feature table with labels (pipelines/load_state.py
+    writes one). The model stores its training domain: the level range and what the in-domain
+    score of `signatelec estimate` compares with.
     """
     from signatelec.estimation.persistence import save_model
     from signatelec.estimation.training import features_from_dataset, train_model
@@ -527,6 +536,13 @@ def train(dataset, out, quiet):
         table = features_from_dataset(dataset)
     except (OSError, ValueError, KeyError) as exc:
         raise InputError(f"{where}: cannot be read as a dataset or feature table ({exc})") from None
+    refused = table.attrs.get("refused", [])
+    if refused and not quiet:
+        click.echo(
+            f"signatelec: skipped {len(refused)} traces the sanity layer refuses, e.g. "
+            f"{refused[0]}",
+            err=True,
+        )
     if len(table) < 10:
         raise InputError(f"{where}: {len(table)} usable traces; training needs at least 10")
     try:

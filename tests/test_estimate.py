@@ -212,6 +212,7 @@ def _with_header(src: Path, dst: Path, **changes) -> Path:
         ({"scikit_learn": "0.20.4"}, "scikit-learn 0.20.4"),
         ({"signatelec": "9.1.0"}, "signatelec 9.1.0"),
         ({"feature_set": 0}, "feature set 0"),
+        ({"format_version": 2}, "model format 2"),  # no training domain in it
     ],
 )
 def test_model_refused_across_versions(small_model, tmp_path, capsys, changes, expected):
@@ -358,7 +359,8 @@ def test_uncertain_regime_is_said(small_model, monkeypatch, probabilities, confi
         return out
 
     monkeypatch.setattr(model, "predict_one", split)
-    trace = prepare_trace(*read_trace(EXAMPLE), 500.0)
+    t, r, _ = read_trace(EXAMPLE)
+    trace = prepare_trace(t, r, 500.0)
     result = estimate(trace, 500.0, model)
     text = format_estimate(result)
     assert result["regime_confident"] is confident

@@ -22,6 +22,7 @@ import numpy as np
 from scipy import fft as sfft
 
 from signatelec.config.bearing import Bearing
+from signatelec.measurement.ripple import padded_power
 from signatelec.measurement.traces import N_HARMONICS, SEARCH_REL
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
@@ -89,7 +90,8 @@ def _linear_fit(r: np.ndarray, t: np.ndarray) -> tuple[float, float]:
 def _find_ball_pass(
     x: np.ndarray, fs: float, f_exp: float, n_harmonics: int, search_rel: float
 ) -> tuple[float, float]:
-    """f_bp maximising the summed power of its harmonics in a zero-padded Hann spectrum.
+    """f_bp maximising the summed power of its harmonics in the zero-padded Hann spectrum
+    (:func:`~signatelec.measurement.ripple.padded_power`, the sanity layer's).
 
     Returns (frequency, peak-to-median ratio of the harmonic sum over the search band). The sum
     over harmonics keeps the search on f_bp where the first harmonic vanishes (comb zeros).
@@ -97,9 +99,7 @@ def _find_ball_pass(
     n = x.size
     if n < 4 or f_exp <= 0.0:
         return f_exp, 1.0
-    n_fft = sfft.next_fast_len(4 * n, real=True)
-    spec = np.abs(sfft.rfft(x * np.hanning(n), n_fft)) ** 2
-    df = fs / n_fft
+    spec, df = padded_power(x, fs)
     duration = n / fs
     step = min(1.0 / (8.0 * duration * n_harmonics), 1e-3 * f_exp)
     lo, hi = f_exp * (1.0 - search_rel), f_exp * (1.0 + search_rel)

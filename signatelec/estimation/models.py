@@ -33,6 +33,7 @@ from sklearn.model_selection import GroupKFold, KFold, StratifiedGroupKFold, Str
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
 
+from signatelec.estimation.domain import Domain
 from signatelec.estimation.forest import SMALL_BATCH, FlatForest
 
 TARGETS = ("radial_load_n", "epsilon", "clearance_m")
@@ -420,12 +421,15 @@ class LoadStateEstimator(_Boosting, BaseEstimator):
 @dataclass
 class LoadStateModel:
     """A fitted :class:`LoadStateEstimator` with what it needs to be used and trusted: the
-    feature columns it reads, in order, and ``info`` on its training (source, rows, runs,
-    targets, coverage, ranges of the labels and of omega)."""
+    feature columns it reads, in order, ``info`` on its training (source, rows, runs,
+    targets, coverage, ranges of the labels, of omega and of the level) and the ``domain`` of
+    its training traces (:class:`~signatelec.estimation.domain.Domain`: level range, in-domain
+    score)."""
 
     estimator: LoadStateEstimator
     features: list[str]
     info: dict
+    domain: Domain | None = None
 
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])

@@ -38,8 +38,9 @@ from signatelec.estimation.training import DEFAULT_TABLE, train_default_model
 from signatelec.io import cache_dir, write_bytes_atomic
 
 MODEL_FORMAT = "signatelec-load-state-model"
-#: 2: the header carries ``body_bytes`` and ``sha256``.
-MODEL_FORMAT_VERSION = 2
+#: 2: the header carries ``body_bytes`` and ``sha256``; 3: the model carries its training
+#: domain (level range, in-domain score).
+MODEL_FORMAT_VERSION = 3
 #: Longest header line read (the header is ~1 kB).
 MAX_HEADER_BYTES = 1 << 20
 RETRAIN = "retrain it with `signatelec train DATASET --out MODEL`"
@@ -113,8 +114,17 @@ def read_model_header(path: str | Path) -> dict:
 
 
 def check_compatible(header: dict, path: str | Path) -> None:
-    """Refuse a model trained with another feature set, signatelec or scikit-learn release."""
+    """Refuse a model trained with another feature set, signatelec or scikit-learn release, or
+    written in an older model format (without its training domain)."""
     here = model_header()
+    if header.get("format_version") != MODEL_FORMAT_VERSION:
+        raise ModelError(
+            path,
+            f"model format {header.get('format_version')} (signatelec "
+            f"{header.get('signatelec')}); this signatelec {__version__} reads format "
+            f"{MODEL_FORMAT_VERSION} (a model that carries its training domain)",
+            RETRAIN,
+        )
     if header.get("feature_set") != FEATURE_SET_VERSION:
         raise ModelError(
             path,
@@ -157,8 +167,8 @@ def load_model(path: str | Path) -> LoadStateModel:
         model = pickle.loads(body)
     except Exception as exc:  # a foreign pickle with a valid checksum: one line, no traceback
         raise ModelError(path, f"the model cannot be read ({type(exc).__name__})") from None
-    if not isinstance(model, LoadStateModel):
-        raise ModelError(path, "does not hold a load-state model")
+    if not isinstance(model, LoadStateModel) or model.domain is None:
+        raise ModelError(path, "does not hold a load-state model with its training domain")
     return model
 
 

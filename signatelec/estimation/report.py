@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
 from signatelec.estimation.models import DEFAULT_COVERAGE
 from signatelec.io import write_bytes_atomic
 from signatelec.physics.regimes import REGIMES
@@ -22,8 +23,7 @@ def format_estimate(result: dict) -> str:
         f"trace: {tr['source']}, {tr['n_samples']} samples at {tr['sample_rate_hz']:.6g} Hz "
         f"({tr['duration_s'] * 1e3:.4g} ms, {tr['ball_passes']:.1f} ball passes); level "
         f"{tr['level_ohm'] * 1e3:.4f} mOhm, noise {tr['noise_rms_rel'] * 100:.3g} %",
-        f"ball-pass frequency: found {tr['ball_pass_found_hz']:.2f} Hz "
-        f"(kinematic {tr['ball_pass_expected_hz']:.2f} Hz)",
+        _ripple_line(tr),
     ]
     for r in tr["repairs"]:
         lines.append(f"repaired: {r}")
@@ -51,9 +51,31 @@ def format_estimate(result: dict) -> str:
         )
         sure = "" if result.get("regime_confident", True) else ", uncertain"
         lines.append(f"  regime = {result['regime']}  ({probs}{sure})")
+    if "in_domain_score" in result:
+        lines.append(
+            f"  in-domain score = {result['in_domain_score']:.2g}  (warning below {WARN_SCORE:g}, "
+            f"refused below {REFUSE_SCORE:g})"
+        )
     for note in result.get("notes", []):
         lines.append(f"note: {note}")
     return "\n".join(lines)
+
+
+def _ripple_line(tr: dict) -> str:
+    """The ball-pass frequency the estimate read, and the line the sanity layer found."""
+    found = (
+        f"ball-pass frequency: found {tr['ball_pass_found_hz']:.2f} Hz "
+        f"(kinematic {tr['ball_pass_expected_hz']:.2f} Hz)"
+    )
+    status, fa = tr.get("ripple"), tr.get("ripple_false_alarm", 1.0)
+    if status == "found":
+        return f"{found}; ripple line false-alarm probability {fa:.1g}"
+    if status == "harmonic":
+        return f"{found}; ripple line at a harmonic only ({tr['ripple_hz']:.2f} Hz, {fa:.1g})"
+    return (
+        f"ball-pass frequency: kinematic {tr['ball_pass_expected_hz']:.2f} Hz; no ripple line "
+        f"found (false-alarm probability {fa:.2g} at best)"
+    )
 
 
 def _json_default(value):

@@ -19,14 +19,17 @@ import pandas as pd
 import sklearn
 
 from signatelec._version import __version__
+from signatelec.estimation.domain import Domain, domain_features
 from signatelec.estimation.features import trace_feature_names, trace_features
 from signatelec.estimation.models import (
     CLASS_TARGET,
+    LEVEL_FEATURE,
     TARGETS,
     LoadStateEstimator,
     LoadStateModel,
 )
-from signatelec.measurement.traces import N_HARMONICS
+from signatelec.measurement.sanity import screen_trace
+from signatelec.measurement.traces import N_HARMONICS, TraceError, prepare_trace
 
 #: The trace features the model reads. The others are redundant for it (the median and the
 #: IQR repeat the mean and the MAD, the band powers around the harmonics and the harmonic
@@ -131,11 +134,12 @@ def train_model(
         "fit_s": round(time.perf_counter() - t0, 2),
         "ranges": {
             c: [float(table[c].min()), float(table[c].max())]
-            for c in ("radial_load_n", "epsilon", "clearance_m", "omega_rad_s")
+            for c in ("radial_load_n", "epsilon", "clearance_m", "omega_rad_s", LEVEL_FEATURE)
             if c in table.columns
         },
     }
-    return LoadStateModel(estimator=est, features=features, info=info)
+    domain = Domain.fit(table, domain_features(features))
+    return LoadStateModel(estimator=est, features=features, info=info, domain=domain)
 
 
 # --- the default model ------------------------------------------------------------------------
@@ -183,12 +187,32 @@ def features_frame(
     return pd.DataFrame(rows, columns=trace_feature_names(n_harmonics))
 
 
+def screened_traces(table: pd.DataFrame) -> tuple[list[np.ndarray], list[int], list[str]]:
+    """The traces of a dataset table through the sanity layer
+    (:func:`signatelec.measurement.sanity.screen_trace`): the (trimmed) traces kept, their row
+    numbers, and one line per trace refused (a ball-pass line away from the labelled speed, a
+    constant trace, a level that is not steady: labels that do not fit the trace)."""
+    kept, rows, refused = [], [], []
+    for i, (r, fs, om) in enumerate(
+        zip(table["resistance_ohm"], table["sample_rate_hz"], table["omega_rad_s"], strict=True)
+    ):
+        name = f"trace {table['trace_id'].iloc[i]}" if "trace_id" in table else f"row {i}"
+        try:
+            trace = prepare_trace(np.arange(len(r)) / fs, r, om, source=name)
+            kept.append(screen_trace(trace, om).trace.resistance_ohm)
+            rows.append(i)
+        except TraceError as exc:
+            refused.append(str(exc))
+    return kept, rows, refused
+
+
 def features_from_dataset(path: str | Path) -> pd.DataFrame:
     """Feature table of a :mod:`signatelec.data` directory (or a Parquet feature table).
 
     A dataset holds one measured trace per row (``resistance_ohm`` as a list column, its
     ``sample_rate_hz`` and labels); each trace gives one row of features, grouped by trace_id.
-    Failed traces are skipped.
+    Failed traces are skipped, and so are traces the sanity layer refuses
+    (:func:`screened_traces`; their one-line reasons in ``table.attrs["refused"]``).
     """
     path = Path(path)
     if path.is_file():
@@ -203,10 +227,12 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
         table = table[table["status"] == "ok"]
     lengths = table["resistance_ohm"].map(len)
     table = table[lengths > 0].reset_index(drop=True)
+    traces, rows, refused = screened_traces(table)
+    table = table.iloc[rows].reset_index(drop=True)
     feats = features_frame(
-        [np.asarray(r, dtype=float) for r in table["resistance_ohm"]],
-        table["sample_rate_hz"].to_numpy(),
-        table["omega_rad_s"].to_numpy(),
+        traces, table["sample_rate_hz"].to_numpy(), table["omega_rad_s"].to_numpy()
     )
     keep = [c for c in ("trace_id", *TARGETS, CLASS_TARGET, "noise_fraction") if c in table]
-    return pd.concat([table[keep].reset_index(drop=True), feats], axis=1)
+    out = pd.concat([table[keep].reset_index(drop=True), feats], axis=1)
+    out.attrs["refused"] = refused
+    return out

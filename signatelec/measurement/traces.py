@@ -7,6 +7,8 @@ wrong.
 
 Repaired (each repair is listed in :attr:`Trace.repairs`):
 
+- a simulation's set-up (``signatelec simulate``'s ``signals.parquet`` has a ``phase`` column:
+  clearance, load, spin-up, steady): only the steady phase is kept;
 - missing resistance samples (NaN, empty cells) and isolated open-circuit samples (``inf``,
   <= 0: no ball touching both rings, a contact lost by the meter) in gaps of at most
   ``MAX_GAP_BALL_PASSES`` of a ball pass, and at most ``MAX_BAD_FRACTION`` of the samples in all:
@@ -31,10 +33,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from signatelec.config.bearing import Bearing
+from signatelec.engines.results import PHASES
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Harmonics of the ball-pass frequency the analysis fits by default (the quasi-static tier puts
@@ -93,13 +97,28 @@ class Trace:
         return self.resistance_ohm.size / self.sample_rate_hz
 
 
+#: The phase of a simulation's output that is a running bearing's trace.
+STEADY_PHASE = PHASES[-1]
+
+
+class TraceColumns(NamedTuple):
+    """The columns of a trace file: time (s), resistance (ohm), and the simulation phase of
+    each row when the file has a ``phase`` column (else None)."""
+
+    time_s: np.ndarray
+    resistance_ohm: np.ndarray
+    phase: np.ndarray | None = None
+
+
 def read_trace(
     path: str | Path,
     time_column: str = "time_s",
     resistance_column: str = "resistance_ohm",
-) -> tuple[np.ndarray, np.ndarray]:
+    phase_column: str = "phase",
+) -> TraceColumns:
     """The time and resistance columns of a CSV (``.csv``, ``.txt``) or Parquet file, as floats
-    (cells that are not numbers become NaN). Raises TraceError naming the file."""
+    (cells that are not numbers become NaN), and its ``phase_column`` if it has one. Raises
+    TraceError naming the file."""
     import pandas as pd
 
     p = Path(path)
@@ -144,7 +163,8 @@ def read_trace(
                 f"({str(raw.iloc[row])[:20]!r}); numbers only (empty or nan for a missing sample)"
             )
         values.append(number.to_numpy(dtype=float))
-    return values[0], values[1]
+    phase = df[phase_column].astype(str).to_numpy() if phase_column in df.columns else None
+    return TraceColumns(values[0], values[1], phase)
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -161,8 +181,12 @@ def prepare_trace(
     omega_rad_s: float,
     source: str = "trace",
     min_ball_passes: float = MIN_BALL_PASSES,
+    phase=None,
 ) -> Trace:
-    """Check, repair and resample a trace for estimation; TraceError when it cannot be used."""
+    """Check, repair and resample a trace for estimation; TraceError when it cannot be used.
+
+    ``phase``: the simulation phase of each row (:attr:`TraceColumns.phase`); only the
+    steady rows are kept."""
     where = source
     if not (isinstance(omega_rad_s, int | float) and math.isfinite(omega_rad_s)):
         raise TraceError(f"--omega {omega_rad_s!r}: must be a finite speed in rad/s")
@@ -173,10 +197,25 @@ def prepare_trace(
         )
     t = np.asarray(time_s, dtype=float).ravel()
     r = np.asarray(resistance_ohm, dtype=float).ravel()
+    repairs: list[str] = []
+    if phase is not None:
+        phase = np.asarray(phase).astype(str).ravel()
+        steady = phase == STEADY_PHASE
+        if not steady.any():
+            raise TraceError(
+                f"{where}: no row of the {STEADY_PHASE!r} phase (phases: "
+                f"{', '.join(dict.fromkeys(phase)) or 'none'}); the set-up is no bearing trace"
+            )
+        if not steady.all():
+            dropped = list(dict.fromkeys(phase[~steady]))
+            repairs.append(
+                f"kept the {STEADY_PHASE} phase: dropped {int((~steady).sum())} set-up samples "
+                f"({', '.join(dropped)})"
+            )
+            t, r = t[steady], r[steady]
     n0 = r.size
     if n0 < 4:
         raise TraceError(f"{where}: {n0} samples; a trace needs at least 4")
-    repairs: list[str] = []
 
     bad_t = ~np.isfinite(t)
     if bad_t.any():

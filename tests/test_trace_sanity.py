@@ -1,0 +1,375 @@
+"""The trace sanity layer: no confident answer to a trace that cannot carry it.
+
+Each refusal is checked from the command line (exit code 2, one line, no traceback); the
+detector's statistics against theory (false alarms on white noise, frequency scatter against
+the Cramer-Rao bound); healthy quasi-static traces over the training design are not refused.
+Held-out DEM runs (measured rates, in signatelec/measurement/sanity.py and README) are too
+costly here.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_estimate import EXAMPLE, _example, _run  # the command line as the estimate tests run it
+from threadpoolctl import threadpool_limits
+
+from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE, Domain, domain_features
+from signatelec.estimation.persistence import save_model
+from signatelec.estimation.training import DEFAULT_TABLE, MODEL_FEATURES, train_default_model
+from signatelec.measurement import ripple as R
+from signatelec.measurement.sanity import screen_trace
+from signatelec.measurement.traces import TraceError, prepare_trace
+from signatelec.physics.kinematics import expected_ball_pass_hz
+
+#: The example's estimate with the default model (README, "Load-state estimation").
+EXAMPLE_LOAD_N = 6929.0
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory):
+    """The default model (the shipped table's recipe), saved once for this module."""
+    path = tmp_path_factory.mktemp("model") / "default.model"
+    with threadpool_limits(1):
+        save_model(train_default_model(), path)
+    return path
+
+
+def _estimate(capsys, path, omega, model_file, *extra) -> tuple[int, str, list[str]]:
+    """Exit code, printed summary and error lines of `signatelec estimate`."""
+    code = _run(
+        ["estimate", str(path), "--omega", f"{omega:g}", "--model", str(model_file), *extra]
+    )
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err.strip().splitlines()
+
+
+def _refused(code: int, err: list[str], *expected: str) -> str:
+    assert code == 2, err
+    assert len(err) == 1 and err[0].startswith("signatelec: error: "), err
+    assert "Traceback" not in err[0]
+    for text in expected:
+        assert text in err[0], err[0]
+    return err[0]
+
+
+def _write(tmp_path: Path, name: str, resistance_ohm, time_s=None) -> Path:
+    df = _example()
+    t = df["time_s"].to_numpy() if time_s is None else time_s
+    path = tmp_path / f"{name}.csv"
+    pd.DataFrame({"time_s": t, "resistance_ohm": resistance_ohm}).to_csv(path, index=False)
+    return path
+
+
+# --- the speed --------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("factor", [0.6, 0.8, 1.2, 1.4])
+def test_wrong_omega_refused(model_file, capsys, factor):
+    """The example runs at 500 rad/s: --omega 20-40 % off is refused, naming the line found,
+    the frequency expected and the speed the line implies."""
+    omega = 500.0 * factor
+    code, _, err = _estimate(capsys, EXAMPLE, omega, model_file)
+    f_exp = expected_ball_pass_hz(omega)
+    line = _refused(code, err, "ripple at 40", f"expected {f_exp:.1f} Hz for --omega {omega:g}")
+    implied = float(re.search(r"speed is about (\d+) rad/s", line).group(1))
+    assert implied == pytest.approx(500.0, rel=0.005)
+
+
+@pytest.mark.parametrize("factor", [0.998, 1.002])
+def test_speed_within_tolerance_accepted(model_file, capsys, factor):
+    """A tachometer 0.2 % off is within the slip the model knows: the same answer."""
+    code, out, err = _estimate(capsys, EXAMPLE, 500.0 * factor, model_file)
+    assert code == 0, err
+    load = float(re.search(r"F_r = (\d+) N", out).group(1))
+    assert load == pytest.approx(EXAMPLE_LOAD_N, rel=0.01)
+
+
+def test_example_answer_unchanged(model_file, tmp_path, capsys):
+    """The example still gives today's answer, with its ripple and in-domain score."""
+    out = tmp_path / "e.json"
+    code, text, err = _estimate(capsys, EXAMPLE, 500.0, model_file, "--out", str(out))
+    assert code == 0, err
+    res = json.loads(out.read_text())
+    assert res["radial_load_n"] == pytest.approx(EXAMPLE_LOAD_N, rel=2e-3)
+    assert res["trace"]["ripple"] == "found" and res["trace"]["ripple_false_alarm"] < 1e-20
+    assert res["trace"]["ripple_hz"] == pytest.approx(409.5, abs=1.0)
+    assert WARN_SCORE < res["in_domain_score"] <= 1.0
+    assert "in-domain score" in text and "note: warning" not in text
+
+
+# --- not a running bearing ----------------------------------------------------------------------
+
+
+def test_constant_trace_refused(model_file, tmp_path, capsys):
+    path = _write(tmp_path, "constant", np.full(len(_example()), 2.5e-3))
+    code, _, err = _estimate(capsys, path, 500.0, model_file)
+    _refused(code, err, "no ball-pass ripple found near 409.7 Hz", "constant")
+
+
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [
+        # 5 % white noise about the example's level: no line, and noise beyond any trained
+        ("noise_at_level", "no ball-pass ripple found near 409.7 Hz: wrong --omega, or not a"),
+        # a meter reading noise only: 0-1 ohm
+        ("noise_only", "outside the trained range"),
+    ],
+)
+def test_white_noise_refused(model_file, tmp_path, capsys, name, expected):
+    rng = np.random.default_rng(3)
+    n = len(_example())
+    r = 2.5e-3 * (1 + 0.05 * rng.standard_normal(n)) if name == "noise_at_level" else None
+    r = rng.uniform(0.0, 1.0, n) if r is None else r
+    code, _, err = _estimate(capsys, _write(tmp_path, name, r), 500.0, model_file)
+    _refused(code, err, expected)
+
+
+def test_no_line_answered_without_confidence(model_file, tmp_path, capsys):
+    """0.2 % white noise at the example's level looks like a running bearing whose load-zone
+    edge sits on a zero of the ripple (no line within the noise, features like the training
+    traces'): answered, with a warning that the speed is unchecked and no confident regime."""
+    rng = np.random.default_rng(4)
+    r = 2.5e-3 * (1 + 0.002 * rng.standard_normal(len(_example())))
+    out = tmp_path / "e.json"
+    code, text, err = _estimate(
+        capsys, _write(tmp_path, "quiet", r), 500.0, model_file, "--out", str(out)
+    )
+    assert code == 0, err
+    assert "warning: no ball-pass ripple found near 409.7 Hz" in text
+    res = json.loads(out.read_text())
+    assert res["trace"]["ripple"] == "none" and res["regime_confident"] is False
+    assert res["in_domain_score"] > 1e-3
+
+
+# --- the level's unit ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("scale", "expected"),
+    [(1e3, "1000x the trained range 1.12-9.79 mOhm: is the column in mOhm?"), (1e-3, "kOhm?")],
+)
+def test_wrong_unit_named(model_file, tmp_path, capsys, scale, expected):
+    path = _write(tmp_path, "scaled", _example()["resistance_ohm"].to_numpy() * scale)
+    code, _, err = _estimate(capsys, path, 500.0, model_file)
+    _refused(code, err, expected)
+
+
+# --- set-up transients --------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    """`signatelec simulate --fidelity fast` of the default scene (F_r = 5820 N, 500 rad/s):
+    signals.parquet with its set-up (clearance, load, spin-up phases) and the steady phase."""
+    out = tmp_path_factory.mktemp("sim")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert _run(["simulate", "--out", str(out), "--fidelity", "fast", "--quiet"]) == 0
+    return pd.read_parquet(out / "signals.parquet")
+
+
+def _measured(signals: pd.DataFrame, with_phase: bool) -> pd.DataFrame:
+    """The simulation through a meter: 0.2 % white noise (the training traces had 0.05-1 %)."""
+    rng = np.random.default_rng(5)
+    df = signals[["time_s", "resistance_ohm", "phase"]].copy()
+    df["resistance_ohm"] *= 1 + 0.002 * rng.standard_normal(len(df))
+    return df if with_phase else df.drop(columns="phase")
+
+
+@pytest.mark.parametrize("variant", ["as_written", "measured", "measured_without_phase"])
+def test_simulate_output_with_setup(model_file, simulated, tmp_path, capsys, variant):
+    """simulate's own signals.parquet, set-up included: the set-up is cut off (by the phase
+    column, or by the level when there is none) and F_r comes within 2 % of 5820 N, or the
+    trace is refused in one line; never averaged in (F_r would be ~10 N)."""
+    df = simulated if variant == "as_written" else _measured(simulated, variant == "measured")
+    assert (df["resistance_ohm"].iloc[:5] > 1.0).all()  # the set-up: ohms, not milliohms
+    path = tmp_path / "signals.parquet"
+    df.to_parquet(path)
+    out = tmp_path / "e.json"
+    code, text, err = _estimate(capsys, path, 500.0, model_file, "--out", str(out))
+    if code == 2:
+        _refused(code, err)
+        assert variant == "as_written"  # noise-free DEM output: unlike the measured traces
+        return
+    assert code == 0, err
+    assert ("kept the steady phase" if variant == "measured" else "trimmed a transient") in text
+    assert json.loads(out.read_text())["radial_load_n"] == pytest.approx(5820.0, rel=0.02)
+
+
+def test_start_up_trimmed_and_step_refused(model_file, tmp_path, capsys):
+    """A measured start-up (level 30 % high, decaying over 20 ms) is cut off in one line; a
+    level step or a 5 % trend that leaves less than 5 steady ball passes is refused."""
+    df = _example()
+    t, r = df["time_s"].to_numpy(), df["resistance_ohm"].to_numpy()
+    start = r * (1 + 0.3 * np.clip(1 - t / 0.02, 0, None))
+    code, text, err = _estimate(capsys, _write(tmp_path, "start", start), 500.0, model_file)
+    assert code == 0, err
+    assert len([x for x in text.splitlines() if "trimmed a transient" in x]) == 1
+    assert float(re.search(r"F_r = (\d+) N", text).group(1)) == pytest.approx(7000.0, rel=0.03)
+    step = r * np.where(t > 0.09, 1.05, 1.0)
+    code, _, err = _estimate(capsys, _write(tmp_path, "step", step), 500.0, model_file)
+    _refused(code, err, "level not steady", "shorter than 5")
+    trend = r * (1 + 0.05 * t / t[-1])
+    code, _, err = _estimate(capsys, _write(tmp_path, "trend", trend), 500.0, model_file)
+    _refused(code, err, "level not steady")
+
+
+# --- the in-domain score ------------------------------------------------------------------------
+
+
+def test_in_domain_score_calibrated():
+    """On runs the domain never saw, the score is an empirical p-value: about 1 % of the
+    shipped table's held-out rows fall below WARN_SCORE, none below REFUSE_SCORE."""
+    table = pd.read_parquet(DEFAULT_TABLE)
+    runs = np.unique(table["run_id"])
+    feats = domain_features(MODEL_FEATURES)
+    domain = Domain.fit(table[table["run_id"].isin(runs[::2])], feats)
+    held = table[table["run_id"].isin(runs[1::2])]
+    scores = np.array([domain.score(row) for row in held[feats].to_dict("records")])
+    assert 0.002 < np.mean(scores < WARN_SCORE) < 0.03
+    assert np.all(scores >= REFUSE_SCORE)
+    assert 0.35 < np.median(scores) < 0.65  # uniform on [0, 1] in the bulk
+    assert domain.score_of_distance(0.0) == pytest.approx(1.0, abs=1e-3)
+    d2 = np.linspace(0.0, 5 * domain.reference[-1], 50)
+    assert np.all(np.diff([domain.score_of_distance(x) for x in d2]) <= 0.0)
+
+
+@pytest.mark.parametrize(
+    ("ripple_rel", "refused"),
+    [(0.0065, False), (0.01, True)],  # the trained h1 stays below 0.35 % of the level
+)
+def test_out_of_domain_warned_or_refused(model_file, tmp_path, capsys, ripple_rel, refused):
+    """A ball-pass ripple far larger than any DEM run's: a warning with the in-domain score,
+    and beyond REFUSE_SCORE a refusal naming the features that are out."""
+    df = _example()
+    t, r = df["time_s"].to_numpy(), df["resistance_ohm"].to_numpy()
+    path = _write(tmp_path, "big", r * (1 + ripple_rel * np.cos(2 * np.pi * 409.53 * t)))
+    code, text, err = _estimate(capsys, path, 500.0, model_file)
+    if refused:
+        _refused(code, err, "unlike every training trace", "h1_rel")
+    else:
+        assert code == 0, err
+        assert "warning: in-domain score" in text and "h1_rel" in text
+
+
+# --- the detector against theory ---------------------------------------------------------------
+
+
+def test_false_alarms_on_white_noise():
+    """On white noise a line is reported no more often than the two tests' false-alarm
+    probability allows (2 x FALSE_ALARM; measured 0.13-0.2 %)."""
+    rng = np.random.default_rng(11)
+    n_traces = 2000
+    found = 0
+    for _ in range(n_traces):
+        x = 2.5e-3 * (1 + 0.002 * rng.standard_normal(1000))
+        found += R.find_ripple(x, 20000.0, rng.uniform(250.0, 750.0)).status != "none"
+    # binomial: P(more than 2.5x the nominal count) < 1e-3
+    assert found <= 2.5 * 2 * R.FALSE_ALARM * n_traces
+
+
+def test_frequency_scatter_follows_cramer_rao():
+    """The found frequency scatters as the Cramer-Rao bound sqrt(6 / z) / (2 pi T) times
+    SIGMA_FACTOR (Rife & Boorstyn 1974), within 30 %: the tolerance's basis."""
+    rng = np.random.default_rng(12)
+    fs, n = 20000.0, 1000
+    t = np.arange(n) / fs
+    errors = []
+    for _ in range(300):
+        omega = rng.uniform(250.0, 750.0)
+        f0 = expected_ball_pass_hz(omega) * (1 - 0.001)
+        x = 1 + 1e-3 * np.cos(2 * np.pi * f0 * t + rng.uniform(0, 2 * np.pi))
+        x += 2e-3 * rng.standard_normal(n)
+        found = R.find_ripple(x, fs, omega)
+        assert found.status == "found"
+        sigma = R.SIGMA_FACTOR * math.sqrt(6 / found.statistic) / (2 * math.pi * n / fs)
+        errors.append((found.frequency_hz - f0) / sigma)
+    assert 0.7 < np.std(errors) < 1.3
+    assert np.max(np.abs(errors)) < R.FREQUENCY_SIGMAS
+
+
+def _quasistatic_traces(n_traces: int, seed: int):
+    """Quasi-static steady traces over the training design (F_r 2500-12500 N log-uniform,
+    clearance -15..+40 um, 250-750 rad/s), 50 ms at 20 kHz, 0.2 % white noise and 0.05 %
+    random-walk drift: (resistance, omega) pairs."""
+    from signatelec.config.scene import Scene
+    from signatelec.engines.simulate import simulate
+    from signatelec.measurement.model import MeasurementDraw, MeasurementModel
+
+    rng = np.random.default_rng(seed)
+    meter = MeasurementModel(sample_rate_hz=20000.0)
+    out = []
+    for _ in range(n_traces):
+        omega = float(rng.uniform(250.0, 750.0))
+        scene = Scene().with_overrides(
+            radial_load_n=float(np.exp(rng.uniform(np.log(2500.0), np.log(12500.0)))),
+            clearance_m=float(rng.uniform(-15e-6, 40e-6)),
+            omega_rad_s=omega,
+            duration_s=0.007 + 0.05,
+            sample_rate_hz=20000.0,
+            fidelity="quasistatic",
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            clean = simulate(scene).steady()["resistance_ohm"].to_numpy()[:1000]
+        out.append((meter.measure(clean, MeasurementDraw(0.002, 5e-4, 0.0), rng), omega))
+    return out
+
+
+def test_healthy_traces_not_refused():
+    """Healthy traces over the training design pass the sanity layer untrimmed (measured on
+    300 held-out DEM runs: none refused by it at 0.2 % noise, 50 ms). With --omega 20 % off,
+    every strong ripple (false-alarm probability below 1e-6) is refused; a weak one, found
+    only with the few trials of the search near the expected frequency, may not stand out of
+    the wide band."""
+    traces = _quasistatic_traces(60, seed=21)
+    strong = refused = 0
+    for r, omega in traces:
+        trace = prepare_trace(np.arange(r.size) / 20000.0, r, omega)
+        screened = screen_trace(trace, omega)
+        assert screened.trace.resistance_ohm.size == r.size  # nothing trimmed
+        if screened.ripple.status == "found" and screened.ripple.false_alarm < 1e-6:
+            strong += 1
+            for factor in (0.8, 1.2):
+                with pytest.raises(TraceError, match="ripple at"):
+                    screen_trace(prepare_trace(trace.time_s, r, omega * factor), omega * factor)
+                refused += 1
+    assert strong >= 20 and refused == 2 * strong
+
+
+def test_train_skips_traces_the_layer_refuses(tmp_path, capsys):
+    """`signatelec train` on measured traces skips (and says) those whose ball-pass line
+    contradicts their speed label; the model stores the trained level range."""
+    from signatelec.estimation.persistence import load_model
+
+    r = _example()["resistance_ohm"].to_numpy()
+    rows = [
+        {
+            "trace_id": i,
+            "sample_rate_hz": 20000.0,
+            "omega_rad_s": 700.0 if i == 3 else 500.0,  # trace 3: a wrong speed label
+            "radial_load_n": 7000.0 * (1 + 0.05 * i),
+            "epsilon": 0.45,
+            "clearance_m": 8e-6,
+            "regime": "clearance" if i % 2 else "zero",
+            "resistance_ohm": r * (1 - 0.05 * i),
+        }
+        for i in range(13)
+    ]
+    traces = tmp_path / "traces.parquet"
+    pd.DataFrame(rows).to_parquet(traces)
+    model = tmp_path / "t.model"
+    assert _run(["train", str(traces), "--out", str(model)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "skipped 1 traces" in err[0] and "trace 3" in err[0], err
+    assert "expected 573.6 Hz for --omega 700" in err[0]
+    lo, hi = load_model(model).domain.level_range_ohm
+    assert lo == pytest.approx(r.mean() * 0.4, rel=0.01) and hi == pytest.approx(r.mean(), rel=0.01)
