@@ -9,7 +9,7 @@ import pytest
 
 from signatelec.cli import main
 from signatelec.config.scene import Scene
-from signatelec.engines.dem.stability import stability_limit
+from signatelec.physics.stability import stability_limit
 from signatelec.io import read_metadata
 
 

@@ -47,8 +47,8 @@ import signatelec.engines.dem.run as dem_simulate
 from signatelec.cli import main
 from signatelec.config.bearing import OUTER, POLYAMIDE, Bearing, Material, contact_properties
 from signatelec.config.scene import SceneError
-from signatelec.engines.dem.stability import StabilityLimit, stability_limit
-from signatelec.engines.laws import scene_law
+from signatelec.physics.stability import StabilityLimit, stability_limit
+from signatelec.physics.laws import scene_law
 from signatelec.engines.results import DivergenceError
 from signatelec.engines.simulate import simulate
 from signatelec.physics import contact

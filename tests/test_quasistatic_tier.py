@@ -17,9 +17,9 @@ from conftest import make_scene
 from signatelec.cli import main
 from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, Bearing
 from signatelec.config.scene import Scene, SceneError
-from signatelec.engines.dem.stability import stability_limit
+from signatelec.physics.stability import stability_limit
 from signatelec.engines.fidelity import PRESETS, apply_fidelity, cage_mass_scale, scale_cage_mass
-from signatelec.engines.laws import scene_law
+from signatelec.physics.laws import scene_law
 from signatelec.engines.quasistatic.tier import (
     TIER_RTOL,
     kinematic_ball_angles_rad,

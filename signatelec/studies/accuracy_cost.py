@@ -6,7 +6,7 @@ seed effect) is compared with each **setting** of the ladder:
 
 - the quasi-static tier (:mod:`signatelec.engines.quasistatic.tier`);
 - the DEM with the seed's effects at several dt (1e-8 s up to the stability limit of
-  :func:`signatelec.engines.dem.stability.stability_limit`), with velocity Verlet or symplectic
+  :func:`signatelec.physics.stability.stability_limit`), with velocity Verlet or symplectic
   Euler;
 - the DEM with the linear (eq. 3) or Harris (eqs 10-11) contact law instead of Hertz;
 - the DEM without gravity (friction, cage and damping cannot go: the balls would not roll);
@@ -201,7 +201,7 @@ _WARM: set = set()
 def _warm_up(scene: Scene) -> None:
     """Load (or compile) the scene's kernel, or the quasi-static tier, before it is timed."""
     from signatelec.engines.dem.spec import KernelSpec
-    from signatelec.engines.dem.stability import stability_limit
+    from signatelec.physics.stability import stability_limit
     from signatelec.engines.simulate import simulate
 
     quasistatic = scene.numerics.fidelity == "quasistatic"
@@ -248,7 +248,7 @@ def run_case(scene: Scene) -> tuple[object, dict]:
 
 
 def _setting_columns(setting: Setting, scene: Scene) -> dict:
-    from signatelec.engines.dem.stability import stability_limit
+    from signatelec.physics.stability import stability_limit
 
     nu, e = scene.numerics, scene.effects
     dem = nu.fidelity == "dem"
