@@ -17,9 +17,7 @@ from conftest import make_scene
 from signatelec.cli import main
 from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, Bearing
 from signatelec.config.scene import Scene, SceneError
-from signatelec.physics.stability import stability_limit
 from signatelec.engines.fidelity import PRESETS, apply_fidelity, cage_mass_scale, scale_cage_mass
-from signatelec.physics.laws import scene_law
 from signatelec.engines.quasistatic.tier import (
     TIER_RTOL,
     kinematic_ball_angles_rad,
@@ -29,7 +27,9 @@ from signatelec.engines.quasistatic.tier import (
 )
 from signatelec.engines.simulate import simulate
 from signatelec.physics.contact import hertz_overlap
+from signatelec.physics.laws import scene_law
 from signatelec.physics.load_distribution import harris_radial_integral
+from signatelec.physics.stability import stability_limit
 
 SEED = Bearing()
 # 400 balls need a pitch circle of ~1 m to fit: the seed's balls and grooves on a large ring.

@@ -48,8 +48,8 @@ from signatelec.config.bearing import (
     OUTER,
     contact_properties,
 )
-from signatelec.physics.laws import chain_force_n, preload_ball_force_n, scene_law
 from signatelec.physics.contact import mindlin_coefficient
+from signatelec.physics.laws import chain_force_n, preload_ball_force_n, scene_law
 
 
 @dataclass(frozen=True)

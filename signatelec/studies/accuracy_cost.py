@@ -201,8 +201,8 @@ _WARM: set = set()
 def _warm_up(scene: Scene) -> None:
     """Load (or compile) the scene's kernel, or the quasi-static tier, before it is timed."""
     from signatelec.engines.dem.spec import KernelSpec
-    from signatelec.physics.stability import stability_limit
     from signatelec.engines.simulate import simulate
+    from signatelec.physics.stability import stability_limit
 
     quasistatic = scene.numerics.fidelity == "quasistatic"
     key = "quasistatic" if quasistatic else KernelSpec.from_scene(scene)

@@ -20,8 +20,6 @@ from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.dem.build import get_kernel, prepare
 from signatelec.engines.dem.records import OK, State, new_parameters, new_recording, new_state
 from signatelec.engines.dem.spec import KernelSpec
-from signatelec.physics.stability import stability_limit
-from signatelec.physics.laws import scene_law
 from signatelec.engines.results import (
     LOADED_FORCE_N,
     MIN_SHIFT_M,
@@ -36,6 +34,8 @@ from signatelec.physics.contact import (
     mindlin_coefficient,
     tangential_stiffness_from_overlap,
 )
+from signatelec.physics.laws import scene_law
+from signatelec.physics.stability import stability_limit
 
 _CONTACT_NAMES = {
     0: "inner-raceway overlap",

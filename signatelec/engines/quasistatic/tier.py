@@ -67,9 +67,9 @@ import pandas as pd
 
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.scene import Scene
-from signatelec.physics.laws import scene_law
 from signatelec.engines.results import PHASES, SimulationResult, phase_times
 from signatelec.physics.contact import NORMAL_LAWS
+from signatelec.physics.laws import scene_law
 from signatelec.physics.load_distribution import epsilon_from_shift
 from signatelec.physics.quasistatic import ring_equilibrium
 from signatelec.physics.ring_equilibrium import RingSolution, solver_loaded
