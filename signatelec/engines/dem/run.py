@@ -179,8 +179,8 @@ def _divergence_message(scene: Scene, status: np.ndarray, cure: str | None = Non
     limit = "" if what == -1 else " beyond 10 % of the body radius"
     time_s = (step + 1) * scene.numerics.dt_s
     head = (
-        f"simulation diverged at step {step} (t = {time_s:.6g} s, {_phase_at(scene, time_s)} "
-        f"phase): {name}, {_CONTACT_NAMES[what]}{limit}; "
+        f"simulation diverged at step {step} (t = {time_s:.6g} s): {name}, "
+        f"{_CONTACT_NAMES[what]}{limit}, in the {_phase_at(scene, time_s)} phase; "
     )
     return head + (cure or "reduce numerics.dt_s or check the scene")
 
