@@ -28,7 +28,8 @@ Settings a scene may leave to ``"auto"`` (:func:`auto_spin_up_time_s`, :func:`au
   that speed: T_spin ~ omega^2 above it. A radial clearance lets the unloaded balls rattle in
   their pockets: that time grows by ``1 + clearance / (CLEARANCE_SCALE_FRACTION R_b)``. Never
   shorter than the seed's 5 ms, never longer than SPIN_UP_MAX_S; the seed's 5 ms for the
-  quasi-static tier, which solves the steady phase only (no set-up dynamics to keep gentle). Calibrated on the seed's scene (measured: 500 rad/s passes
+  quasi-static tier, which solves the steady phase only (no set-up dynamics to keep gentle).
+  Calibrated on the seed's scene (measured: 500 rad/s passes
   with 5 ms, 1000 rad/s fails with 5 and passes with 10 ms, 2000 rad/s fails with 20 and passes
   with 40 ms, 3000 rad/s fails with 40 and passes with 80 ms, a 247 um clearance at 500 rad/s
   fails with 5 and passes with 10 ms); the rule keeps a factor of about 2 over those points and
