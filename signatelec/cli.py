@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import sys
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -107,12 +108,33 @@ def cli() -> None:
     help="Tier (quasistatic: steady phase, ms; dem) or preset (fast, balanced, reference; "
     "see README); an explicit --dt wins over the preset's.",
 )
+@click.option(
+    "--bearing",
+    "designation",
+    type=str,
+    default=None,
+    help="Catalogue bearing replacing the scene's (see `signatelec bearings`).",
+)
 @click.option("--out", "out", type=str, required=True, help="Output directory.")
 @click.option("--quiet", is_flag=True, help="No progress bar or summary.")
 def simulate(
-    scene_file, radial_load_n, clearance_m, omega_rad_s, duration_s, dt_s, fidelity, out, quiet
+    scene_file,
+    radial_load_n,
+    clearance_m,
+    omega_rad_s,
+    duration_s,
+    dt_s,
+    fidelity,
+    designation,
+    out,
+    quiet,
 ):
-    """Simulate a scene; write DIR/balls.parquet and DIR/signals.parquet."""
+    """Simulate a scene; write DIR/balls.parquet and DIR/signals.parquet.
+
+    The time step, spin-up and duration not given are chosen for the scene (dt within its
+    stability limit, at most 1e-7 s; a spin-up gentle enough for its speed, cage and clearance;
+    a few ball passes of steady running); the summary says what was chosen.
+    """
     from signatelec.engines.results import DivergenceError
     from signatelec.engines.simulate import simulate as run
 
@@ -124,6 +146,14 @@ def simulate(
         "dt_s": dt_s,
     }
     scene = load_scene(scene_file, **overrides)
+    if designation is not None:
+        from signatelec.config.bearing import BearingError
+        from signatelec.config.catalogue import catalogue_bearing
+
+        try:
+            scene = replace(scene, bearing=catalogue_bearing(designation))
+        except (BearingError, SceneError) as exc:
+            raise InputError(f"--bearing {designation!r}: {exc}") from None
     if fidelity is not None:
         from signatelec.engines.fidelity import apply_fidelity
 
@@ -154,6 +184,50 @@ def simulate(
         click.echo(summary(result, out))
 
 
+@cli.command()
+@click.option("--csv", "as_csv", is_flag=True, help="Every column, sources included, as CSV.")
+def bearings(as_csv):
+    """List the bearing catalogue (`--bearing`, `[bearing] designation`): geometry, ratings,
+    speeds, sources and the defect frequencies as orders of the shaft speed."""
+    from signatelec.config.catalogue import list_bearings
+
+    table = list_bearings()
+    if as_csv:
+        click.echo(table.to_csv(), nl=False)
+        return
+    mm = 1e3
+    view = table.assign(
+        ball_mm=table["ball_diameter_m"] * mm,
+        pitch_mm=table["pitch_diameter_m"] * mm,
+        r_in_mm=table["inner_race_radius_m"] * mm,
+        r_out_mm=table["outer_race_radius_m"] * mm,
+        c_r_kn=table["dynamic_load_rating_n"] / 1e3,
+        c_0r_kn=table["static_load_rating_n"] / 1e3,
+    )[
+        [
+            "n_balls",
+            "ball_mm",
+            "pitch_mm",
+            "r_in_mm",
+            "r_out_mm",
+            "c_r_kn",
+            "c_0r_kn",
+            "limiting_speed_rpm",
+            "mass_kg",
+            "ftf_order",
+            "bpfo_order",
+            "bpfi_order",
+            "bsf_order",
+        ]
+    ]
+    click.echo(view.to_string(float_format=lambda v: f"{v:.5g}", na_rep="-"))
+    click.echo("sources: signatelec bearings --csv; orders: multiples of the shaft frequency")
+
+
+def _chosen(scene, key: str) -> str:
+    return " (auto)" if key in scene.auto else ""
+
+
 def summary(result, out: str | None = None) -> str:
     """A readable summary of a run: timings and steady-state figures."""
     sc = result.scene
@@ -163,7 +237,9 @@ def summary(result, out: str | None = None) -> str:
     lines = [
         f"scene: F_r = {sc.operating.radial_load_n:g} N, clearance = "
         f"{sc.operating.clearance_m * 1e6:g} um, omega = {sc.operating.omega_rad_s:g} rad/s, "
-        f"dt = {sc.numerics.dt_s:g} s, {sc.numerics.duration_s:g} s",
+        f"dt = {sc.numerics.dt_s:.3g} s{_chosen(sc, 'numerics.dt_s')}, spin-up = "
+        f"{sc.procedure.spin_up_time_s * 1e3:.3g} ms{_chosen(sc, 'procedure.spin_up_time_s')}, "
+        f"{sc.numerics.duration_s:.4g} s{_chosen(sc, 'numerics.duration_s')}",
         f"run: {t['n_steps']} steps in {t['run_s']:.3f} s ({t['us_per_step']:.3f} us/step), "
         f"compile/load {t['compile_s']:.2f} s"
         if t.get("tier") != "quasistatic"
