@@ -355,6 +355,41 @@ def accuracy_cost(out, quick, fresh, quiet):
         raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
 
 
+@study.command("operating-map")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--quick", is_flag=True, help="Three cells, two ball passes: a pipeline check.")
+@click.option(
+    "--cage",
+    "cages",
+    multiple=True,
+    default=("balls",),
+    show_default=True,
+    help="Cage model(s) to map (repeatable; see the scene's effects.cage).",
+)
+@click.option("--fresh", is_flag=True, help="Ignore finished cells cached in DIR/.cache.")
+@click.option("--quiet", is_flag=True, help="No progress or file list.")
+def operating_map(out, quick, cages, fresh, quiet):
+    """Every catalogue bearing at its rated speeds with the defaults: DIR/operating_map.{parquet,
+    md,png}."""
+    from signatelec.config.scene import OPTION_TABLE
+    from signatelec.studies.operating_map import run_study
+
+    option = OPTION_TABLE[("effects", "cage")]
+    for cage in cages:
+        if not option.accepts(cage):
+            raise InputError(f"--cage {cage!r}: {option.rule}")
+    check_writable(out)
+    try:
+        paths = run_study(
+            out, quick=quick, cages=cages, fresh=fresh, log=None if quiet else click.echo
+        )
+    except OSError as exc:
+        raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
+    if not quiet:
+        for path in paths.values():
+            click.echo(f"wrote {path}")
+
+
 @cli.command()
 @click.argument("spec_file", metavar="SPEC.toml", type=str)
 @click.option("--out", "out", type=str, required=True, help="Dataset directory (resumable).")

@@ -119,9 +119,7 @@ def cell_scene(cell: Cell, ball_passes: int = BALL_PASSES) -> Scene:
         cage=cell.cage,
     )
     passes_hz = bearing.ball_pass_frequency_hz(cell.omega_rad_s)
-    return scene.with_overrides(
-        duration_s=scene.setup_time_s + SETTLE_S + ball_passes / passes_hz
-    )
+    return scene.with_overrides(duration_s=scene.setup_time_s + SETTLE_S + ball_passes / passes_hz)
 
 
 def cells(

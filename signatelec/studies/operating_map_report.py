@@ -76,9 +76,7 @@ def markdown(table: pd.DataFrame, run_time_s: float | None = None) -> str:
             "|---|---|---|---|---|---|---|---|---|---|",
         ]
         for r in bad.itertuples():
-            why = (getattr(r, "message", "") or getattr(r, "warnings", "") or "").replace(
-                "|", "/"
-            )
+            why = (getattr(r, "message", "") or getattr(r, "warnings", "") or "").replace("|", "/")
             lines.append(
                 f"| {r.designation} | {r.cage} | {r.omega_rad_s:.4g} | {r.load_fraction:g} | "
                 f"{r.clearance} | {r.status} | {_pct(getattr(r, 'resistance_error', None))} | "
