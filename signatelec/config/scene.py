@@ -490,6 +490,8 @@ def _section(name: str, cls: type, data: Any) -> Any:
             row = type_row(name, f)
             if f.default == AUTO and value == AUTO:
                 converted[f.name] = value
+            elif f.default == AUTO and (isinstance(value, (str, bool)) or value is None):
+                check.fail(f"{name}.{f.name}", value, f'must be a number or "{AUTO}"')
             else:
                 converted[f.name] = value if row is None else check.check(row, value)
     return cls(**converted)
