@@ -21,6 +21,12 @@ def _pct(x) -> str:
     return "-" if x is None or not np.isfinite(x) else f"{100 * x:+.2f} %"
 
 
+def _density(table: pd.DataFrame) -> pd.Series:
+    if "current_density_warning" not in table:
+        return pd.Series(False, index=table.index)
+    return table["current_density_warning"].fillna(False).astype(bool)
+
+
 def markdown(table: pd.DataFrame, run_time_s: float | None = None) -> str:
     from signatelec.studies.operating_map import (
         BALL_PASSES,
@@ -43,11 +49,13 @@ def markdown(table: pd.DataFrame, run_time_s: float | None = None) -> str:
         "",
         f"{len(table)} cells: {int((kinds == 'ok').sum())} ok, {int((kinds == 'off').sum())} "
         f"off the tier or the energy balance, {int((kinds == 'diverged').sum())} diverged, "
-        f"{int((kinds == 'refused').sum())} refused.",
+        f"{int((kinds == 'refused').sum())} refused. Steady current density above the seed's "
+        f"0.1 A/mm^2 (physics, light loads on small contacts; not counted as a fault): "
+        f"{int(_density(table).sum())} cells.",
         "",
-        "| bearing | cage | cells | ok | off | diverged | largest overlap / R_b | "
+        "| bearing | cage | cells | ok | off | diverged | > 0.1 A/mm^2 | largest overlap / R_b | "
         "worst energy error | worst resistance error | worst ball-load error |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for (des, cage), g in table.groupby(["designation", "cage"], sort=False):
         k = g.status.map(_kind)
@@ -61,6 +69,7 @@ def markdown(table: pd.DataFrame, run_time_s: float | None = None) -> str:
         lines.append(
             f"| {des} | {cage} | {len(g)} | {int((k == 'ok').sum())} | "
             f"{int((k == 'off').sum())} | {int((k == 'diverged').sum())} | "
+            f"{int(_density(g).sum())} | "
             f"{'-' if not np.isfinite(overlap) else f'{100 * overlap:.2f} %'} | "
             f"{_pct(worst('energy_error'))} | {_pct(worst('resistance_error'))} | "
             f"{_pct(worst('load_error'))} |"
