@@ -189,6 +189,7 @@ def base_scene(study_scene: StudyScene, config: StudyConfig) -> Scene:
         radial_load_n=study_scene.load_fraction * base.bearing.dynamic_load_rating_n,
         clearance_m=study_scene.clearance_m,
         omega_rad_s=config.omega_rad_s,
+        spin_up_time_s=base.procedure.spin_up_time_s,  # the paper's 5 ms for every scene
     )
     bpf = scene.bearing.ball_pass_frequency_hz(config.omega_rad_s)
     duration = scene.setup_time_s + SETTLE_S + config.n_periods / bpf
