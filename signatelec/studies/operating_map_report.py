@@ -103,10 +103,12 @@ def plot(table: pd.DataFrame, path: Path) -> Path:
     fig = new_figure(4.0 * len(CLEARANCES), 0.5 + 0.9 * len(designations) * len(cages))
     axes = fig.subplots(1, len(CLEARANCES), sharey=True, squeeze=False)[0]
     rows = [(d, c) for c in cages for d in designations]
+    loads = sorted(set(table.load_fraction))
     for ax, clearance in zip(axes, CLEARANCES, strict=True):
         part = table[table.clearance == clearance]
         for r in part.itertuples():
-            y = rows.index((r.designation, r.cage)) + 0.2 * (r.load_fraction / 0.5 - 0.5) * 3
+            level = loads.index(r.load_fraction)
+            y = rows.index((r.designation, r.cage)) + 0.2 * (level - (len(loads) - 1) / 2)
             ax.scatter(r.omega_rad_s, y, color=COLOURS[_kind(r.status)], s=18)
         ax.set_xscale("log")
         ax.set_title(f"clearance: {clearance}")
@@ -116,7 +118,9 @@ def plot(table: pd.DataFrame, path: Path) -> Path:
     for kind, colour in COLOURS.items():
         axes[-1].scatter([], [], color=colour, label=kind)
     axes[-1].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), title="cell")
-    axes[0].set_ylabel("bearing; within a row, load 0 to 0.5 C_r upwards")
+    axes[0].set_ylabel(
+        "bearing; within a row, F_r / C_r = " + ", ".join(f"{f:g}" for f in loads) + " upwards"
+    )
     return save_figure(fig, path)
 
 
