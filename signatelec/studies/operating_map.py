@@ -43,6 +43,7 @@ from signatelec.config.catalogue import catalogue_bearing, catalogue_entry, list
 from signatelec.config.scene import Scene, SceneError, preload_limit_m
 from signatelec.physics.electrical import CurrentDensityWarning
 from signatelec.physics.laws import scene_law
+from signatelec.studies.operating_map_report import write_outputs
 
 LOWEST_SPEED_RAD_S = 10.0
 N_SPEEDS = 5
@@ -273,8 +274,6 @@ def run_study(
     log: Callable[[str], None] | None = None,
 ) -> dict[str, Path]:
     """Run the map (``quick``: :data:`QUICK_CELLS`, two ball passes) and write its outputs."""
-    from signatelec.studies.operating_map_report import write_outputs
-
     out = Path(out_dir)
     t0 = time.perf_counter()
     if quick:
@@ -282,4 +281,10 @@ def run_study(
         table = run_map(todo, out, ball_passes=2, fresh=fresh, log=log)
     else:
         table = run_map(cells(cages=cages), out, fresh=fresh, log=log)
-    return write_outputs(table, out, time.perf_counter() - t0)
+    criteria = {
+        "ball_passes": 2 if quick else BALL_PASSES,
+        "energy_rtol": ENERGY_RTOL,
+        "resistance_rtol": RESISTANCE_RTOL,
+        "load_rtol": LOAD_RTOL,
+    }
+    return write_outputs(table, out, criteria, time.perf_counter() - t0)
