@@ -165,7 +165,8 @@ SCENE_CASES = {
         ("numerics.duration_s", "must exceed the set-up phases"),
     ),
     "setup_longer_than_duration": Case(
-        "[procedure]\nspin_up_time_s = 0.05\n",
+        # the automatic duration follows the set-up; a duration given is checked against it
+        "[procedure]\nspin_up_time_s = 0.05\n[numerics]\nduration_s = 0.03\n",
         (),
         ("numerics.duration_s", "must exceed the set-up phases"),
     ),

@@ -9,8 +9,8 @@ import pytest
 
 from signatelec.cli import main
 from signatelec.config.scene import Scene
-from signatelec.engines.dem.stability import stability_limit
 from signatelec.io import read_metadata
+from signatelec.physics.stability import stability_limit
 
 
 def run_cli(argv):

@@ -13,7 +13,7 @@ import pytest
 
 from signatelec.config import constraints as C
 from signatelec.config.bearing import INNER, OUTER, Bearing, BearingError, Material
-from signatelec.config.scene import Scene, SceneError, scene_limits
+from signatelec.config.scene import AUTO, Scene, SceneError, scene_limits
 from signatelec.measurement.model import MeasurementModel
 from signatelec.physics.contact import hertz_overlap, law_coefficients
 
@@ -35,7 +35,10 @@ def test_scene_rows_name_number_fields_and_every_limit_is_supplied():
     scene = Scene()
     for row in C.SCENE:
         field = {f.name: f for f in fields(getattr(scene, row.section))}[row.key]
-        assert isinstance(field.default, float) and row.kind == C.NUMBER, row.name
+        # a number, or "auto" (a number the scene chooses: it is a number once the scene is built)
+        assert isinstance(field.default, float) or field.default == AUTO, row.name
+        assert isinstance(getattr(getattr(scene, row.section), row.key), float), row.name
+        assert row.kind == C.NUMBER, row.name
     assert named_limits(C.SCENE) <= set(scene_limits(scene))
 
 

@@ -407,6 +407,8 @@ def test_failed_traces_are_recorded_and_the_job_goes_on(tmp_path):
             kind = "grid"
             factors.radial_load_fraction = {values = [0.5]}
             factors.epsilon = {values = [20.0]}
+            [scene.procedure]
+            spin_up_time_s = 0.005
             """,
         )
     )

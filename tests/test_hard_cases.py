@@ -48,14 +48,14 @@ import signatelec.engines.dem.run as dem_simulate
 from signatelec.cli import main
 from signatelec.config.bearing import OUTER, POLYAMIDE, Bearing, Material, contact_properties
 from signatelec.config.scene import SceneError
-from signatelec.engines.dem.stability import StabilityLimit, stability_limit
-from signatelec.engines.laws import scene_law
 from signatelec.engines.results import DivergenceError
 from signatelec.engines.simulate import simulate
 from signatelec.physics import contact
 from signatelec.physics.conductance import ball_conductance
 from signatelec.physics.electrical import OUTER_RING_NODE
+from signatelec.physics.laws import scene_law
 from signatelec.physics.quasistatic import ball_angles_rad, solve_equilibrium
+from signatelec.physics.stability import StabilityLimit, stability_limit
 
 # The seed's 0.1 A/mm^2 current-density warning fires at the first contact instants of every
 # run; it concerns the electrical model, not this issue.

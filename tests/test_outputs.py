@@ -331,18 +331,16 @@ def test_time_steps_beyond_the_limit_are_refused_with_a_step_that_helps(tmp_path
     line = assert_one_line(proc, 2, "numerics.dt_s = 1e-12", "3e+10 steps", "raise numerics.dt_s")
     assert f"{MAX_STEPS:.0e}" in line
     # above the stability limit and too long at any stable step: shorten the run, by how much
-    scene = write_spec(
-        tmp_path,
-        "[effects]\ncontact_law = 'linear'\n[numerics]\nduration_s = 100.0\n"
-        "linear_stiffness_n_m = 1e10\n",
-        "stiff.toml",
-    )
-    proc = cli("simulate", "--scene", str(scene), "--out", str(tmp_path / "run"))
-    line = assert_one_line(proc, 2, "above the stability limit", "shorten numerics.duration_s")
-    limit_s = float(line.split("stability limit ")[1].split(" s")[0])
-    at_most = float(line.split("to at most ")[1].split(" s")[0])
-    assert at_most / limit_s == pytest.approx(MAX_STEPS, rel=1e-2)
-    assert list(tmp_path.glob("run*")) == []
+    stiff = "[effects]\ncontact_law = 'linear'\n[numerics]\nduration_s = 100.0\n"
+    stiff += "linear_stiffness_n_m = 1e10\n"
+    for extra, said in (("dt_s = 1e-7\n", "above the stability limit"), ("", "at any stable")):
+        scene = write_spec(tmp_path, stiff + extra, "stiff.toml")
+        proc = cli("simulate", "--scene", str(scene), "--out", str(tmp_path / "run"))
+        line = assert_one_line(proc, 2, said, "shorten numerics.duration_s")
+        limit_s = float(line.split("stability limit ")[1].split(" s")[0])
+        at_most = float(line.split("to at most ")[1].split(" s")[0])
+        assert at_most / limit_s == pytest.approx(MAX_STEPS, rel=1e-2)
+        assert list(tmp_path.glob("run*")) == []
 
 
 def test_no_allowed_step_gives_no_advice_to_use_one(tmp_path):
@@ -431,20 +429,31 @@ def test_trace_files_are_read_with_a_limit(tmp_path, name, expected):
 
 
 def test_the_divergence_advice_is_one_that_helps(tmp_path):
-    """A large clearance at 1000 rad/s after a 5 ms spin-up throws a cage ball out: a quarter of
-    the time step diverges at the same instant, the advised longer spin-up runs."""
+    """A large clearance at 1000 rad/s after a brisk 5 ms spin-up throws a cage ball out. A
+    quarter of the time step diverges at the same instant, so a smaller dt is not the cure; the
+    message names the cure it measured, and the scene with that cure runs."""
+    brisk = "[procedure]\nspin_up_time_s = 0.005\n"
     args = ("--radial-load", "873", "--clearance", "6e-5", "--omega", "1000", "--quiet")
     out = tmp_path / "run"
-    proc = cli("simulate", *args, "--duration", "0.012", "--out", str(out))
-    line = assert_one_line(proc, 3, "diverged at step", "a smaller dt will not help")
-    assert "procedure.spin_up_time_s" in line and "reduce numerics.dt_s" not in line
+    scene = write_spec(tmp_path, brisk, "brisk.toml")
+    proc = cli("simulate", "--scene", str(scene), *args, "--duration", "0.012", "--out", str(out))
+    line = assert_one_line(proc, 3, "diverged at step", "cure measured: ")
+    assert "cure measured: a smaller time step" not in line
     at_s = float(line.split("(t = ")[1].split(" s)")[0])
-    proc = cli("simulate", *args, "--duration", "0.012", "--dt", "2.5e-8", "--out", str(out))
-    line = assert_one_line(proc, 3, "diverged at step")
-    assert float(line.split("(t = ")[1].split(" s)")[0]) == pytest.approx(at_s, rel=1e-3)
+    quarter = ("--duration", "0.012", "--dt", "2.5e-8", "--out", str(out))
+    proc = cli("simulate", "--scene", str(scene), *args, *quarter)
+    line_quarter = assert_one_line(proc, 3, "diverged at step")
+    assert float(line_quarter.split("(t = ")[1].split(" s)")[0]) == pytest.approx(at_s, rel=1e-3)
     assert not out.exists()
-    scene = write_spec(tmp_path, "[procedure]\nspin_up_time_s = 0.02\n")
-    proc = cli("simulate", "--scene", str(scene), *args, "--duration", "0.025", "--out", str(out))
+    cure = line.split("cure measured: ")[1]
+    if "spin_up_time_s = " in cure:
+        spin_up = float(cure.split("spin_up_time_s = ")[1].split(",")[0])
+        cured = f"[procedure]\nspin_up_time_s = {spin_up!r}\n"
+    else:
+        cage = cure.split('effects.cage = "')[1].split('"')[0]
+        cured = brisk + f"[effects]\ncage = {cage!r}\n"
+    scene = write_spec(tmp_path, cured, "cured.toml")
+    proc = cli("simulate", "--scene", str(scene), *args, "--duration", "0.05", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
 
 

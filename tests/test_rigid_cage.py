@@ -18,10 +18,10 @@ from test_hard_cases import BALANCE_RTOL, OVERLAP_LIMIT, assert_sound, soundness
 from signatelec.config.bearing import BALL_POCKET, Bearing
 from signatelec.config.catalogue import catalogue_bearing
 from signatelec.config.scene import Scene
-from signatelec.engines.dem.stability import stability_limit
 from signatelec.engines.fidelity import apply_fidelity
-from signatelec.engines.laws import scene_law
 from signatelec.engines.quasistatic.tier import simulate_quasistatic
+from signatelec.physics.laws import scene_law
+from signatelec.physics.stability import stability_limit
 
 pytestmark = pytest.mark.filterwarnings(
     "ignore::signatelec.physics.electrical.CurrentDensityWarning"

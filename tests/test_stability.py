@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import make_scene
 
-from signatelec.engines.dem.stability import damped_step_limit, stability_limit
+from signatelec.physics.stability import damped_step_limit, stability_limit
 
 
 def spectral_radius(integrator: str, h: float, zeta: float, omega: float = 1.0) -> float:

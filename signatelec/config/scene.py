@@ -5,7 +5,8 @@ value raises :class:`SceneError` with one line naming the key, the value and wha
 
 TOML layout (every section and key optional; defaults are the seed's scene, section 4)::
 
-    [bearing]      # fields of signatelec.config.bearing.Bearing (radii, n_balls, materials, ...)
+    [bearing]      designation (a catalogue bearing, signatelec.config.catalogue; default: the
+                   seed's), then any field of signatelec.config.bearing.Bearing to override it
     [operating]    radial_load_n, clearance_m, omega_rad_s, initial_ball_angle_rad,
                    injected_current_a
     [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp, clearance_phase,
@@ -13,6 +14,10 @@ TOML layout (every section and key optional; defaults are the seed's scene, sect
     [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal
     [outputs]      electrical, energy
     [numerics]     dt_s, duration_s, sample_rate_hz, integrator, fidelity, linear_stiffness_n_m
+
+``procedure.spin_up_time_s``, ``numerics.dt_s`` and ``numerics.duration_s`` default to ``"auto"``:
+the scene chooses them when it is built (:func:`resolve_auto`), and :attr:`Scene.chosen` names
+what it chose; a number given instead is kept as given.
 
 Every choice (a model name or a switch) is declared once in :data:`OPTIONS` with its allowed
 values, default and cost; ``[effects]`` holds the physics, each option naming a model.
@@ -31,9 +36,11 @@ from pathlib import Path
 from typing import Any
 
 from signatelec.config.bearing import INNER, OUTER, Bearing, BearingError
+from signatelec.config.catalogue import catalogue_bearing
 from signatelec.config.constraints import (
     BOOLEAN,
     CLEARANCE_LIMIT_FRACTION,
+    DT_MIN_S,
     NUMBER,
     OVERLAP_LIMIT_FRACTION,
     SCENE,
@@ -42,6 +49,7 @@ from signatelec.config.constraints import (
 )
 from signatelec.io import read_limited
 from signatelec.physics.contact import CONTACT_LAWS, hertz_normal_force, law_coefficients
+from signatelec.physics.stability import auto_dt_s, auto_spin_up_time_s
 
 
 class SceneError(ValueError):
@@ -49,6 +57,12 @@ class SceneError(ValueError):
 
 
 FIDELITIES = ("dem", "quasistatic")
+#: The value of a setting the scene chooses itself (see :func:`resolve_auto`).
+AUTO = "auto"
+#: Steady running an automatic duration keeps after the set-up: the seed's (30 ms - 7 ms set-up),
+#: or STEADY_BALL_PASSES outer-race ball passes when they take longer (low speeds), s.
+STEADY_MIN_S = 0.023
+STEADY_BALL_PASSES = 5
 
 
 @dataclass(frozen=True)
@@ -221,7 +235,9 @@ class Procedure:
 
     clearance_time_s: float = 0.5e-3
     load_time_s: float = 1.5e-3
-    spin_up_time_s: float = 5.0e-3
+    #: "auto": long enough for the scene's speed, cage and clearance
+    #: (signatelec.physics.stability.auto_spin_up_time_s; the seed's 5 ms at its scene).
+    spin_up_time_s: float | str = AUTO
     load_ramp: str = _default("procedure", "load_ramp")
     clearance_phase: bool = _default("procedure", "clearance_phase")
     spin_up: bool = _default("procedure", "spin_up")
@@ -255,8 +271,11 @@ class Outputs:
 
 @dataclass(frozen=True)
 class Numerics:
-    dt_s: float = 1e-7
-    duration_s: float = 0.03
+    #: "auto": 0.9 x the stability limit, at most 1e-7 s (physics.stability.auto_dt_s).
+    dt_s: float | str = AUTO
+    #: "auto": the set-up, then max(STEADY_MIN_S, STEADY_BALL_PASSES ball passes) of steady
+    #: running (the seed's 30 ms at its scene).
+    duration_s: float | str = AUTO
     sample_rate_hz: float = 20000.0
     integrator: str = _default("numerics", "integrator")
     fidelity: str = _default("numerics", "fidelity")
@@ -283,9 +302,18 @@ class Scene:
     effects: Effects = field(default_factory=Effects)
     outputs: Outputs = field(default_factory=Outputs)
     numerics: Numerics = field(default_factory=Numerics)
+    #: The settings the scene chose itself, ``(("numerics.dt_s", 1e-07), ...)``; a copy made
+    #: with other values chooses them again unless its own value is given.
+    chosen: tuple = field(default=(), compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        resolve_auto(self)
         validate_scene(self)
+
+    @property
+    def auto(self) -> dict[str, float]:
+        """The chosen settings as ``{"numerics.dt_s": 1e-07, ...}``."""
+        return dict(self.chosen)
 
     # --- derived ------------------------------------------------------------------------
     @property
@@ -323,7 +351,12 @@ class Scene:
         for name, value in data.items():
             if name == "bearing":
                 try:
-                    kwargs["bearing"] = Bearing.from_dict(check.table(name, value))
+                    table = check.table(name, value)
+                    if "designation" in table:  # a catalogue bearing, its fields overridable
+                        rest = {k: v for k, v in table.items() if k != "designation"}
+                        kwargs["bearing"] = catalogue_bearing(table["designation"], **rest)
+                    else:
+                        kwargs["bearing"] = Bearing.from_dict(table)
                 except BearingError as exc:
                     raise SceneError(str(exc)) from None
                 except TypeError as exc:
@@ -349,7 +382,73 @@ class Scene:
             else:
                 raise SceneError(f"{key} = {value!r}: not a scene parameter")
         updated = {s: replace(getattr(self, s), **v) for s, v in parts.items() if v}
-        return replace(self, **updated)
+        # a chosen setting given again is the caller's; the others are chosen again
+        given = {f"{s}.{k}" for s, v in parts.items() for k in v}
+        chosen = tuple((k, v) for k, v in self.chosen if k not in given)
+        return replace(self, **updated, chosen=chosen)
+
+
+#: Settings that may be "auto", in the order they are chosen (each may use those before it).
+AUTO_KEYS = ("procedure.spin_up_time_s", "numerics.dt_s", "numerics.duration_s")
+
+
+def _auto_duration_s(scene: Scene) -> float:
+    b = scene.bearing
+    passes_hz = b.ball_pass_frequency_hz(scene.operating.omega_rad_s)
+    steady = STEADY_MIN_S
+    if passes_hz > 0.0:
+        steady = max(steady, STEADY_BALL_PASSES / passes_hz)
+    return scene.setup_time_s + steady
+
+
+_RULES = {
+    "procedure.spin_up_time_s": auto_spin_up_time_s,
+    "numerics.dt_s": auto_dt_s,
+    "numerics.duration_s": _auto_duration_s,
+}
+#: Stand-ins while a setting is being chosen (the seed's values).
+_PLACEHOLDERS = {
+    "procedure.spin_up_time_s": 5.0e-3,
+    "numerics.dt_s": 1e-7,
+    "numerics.duration_s": 0.03,
+}
+
+
+def resolve_auto(scene: Scene) -> None:
+    """Replace the ``"auto"`` settings of ``scene`` (being built) by the values their rules give.
+
+    A setting is chosen again when its value is ``"auto"`` or still the value chosen for the
+    scene it was copied from (:attr:`Scene.chosen`). A rule that cannot be evaluated (a value
+    out of range elsewhere in the scene) leaves the seed's value, and validation then names the
+    value at fault.
+    """
+    previous = dict(scene.chosen)
+    todo = []
+    for key in AUTO_KEYS:
+        section, name = key.split(".")
+        value = getattr(getattr(scene, section), name)
+        if value == AUTO or (key in previous and value == previous[key]):
+            todo.append(key)
+            _set(scene, key, _PLACEHOLDERS[key])
+    chosen = {}
+    for key in todo:
+        try:
+            value = float(_RULES[key](scene))
+        except (ArithmeticError, ValueError, TypeError):
+            value = _PLACEHOLDERS[key]
+        if not math.isfinite(value) or value <= 0.0:
+            value = _PLACEHOLDERS[key]
+        if key == "numerics.dt_s":
+            # a limit below the smallest allowed step: the run budget says no step runs it
+            value = max(value, DT_MIN_S)
+        _set(scene, key, value)
+        chosen[key] = value
+    object.__setattr__(scene, "chosen", tuple(chosen.items()))
+
+
+def _set(scene: Scene, key: str, value: float) -> None:
+    section, name = key.split(".")
+    object.__setattr__(scene, section, replace(getattr(scene, section), **{name: value}))
 
 
 #: Largest scene file or dataset spec read, bytes: far above any real one (a few kB), small
@@ -390,7 +489,7 @@ def type_row(section: str, f) -> Constraint | None:
     false, or a number (the ranges are rows of :data:`signatelec.config.constraints.SCENE`)."""
     if isinstance(f.default, bool):
         return Constraint(section, f.name, BOOLEAN)
-    if isinstance(f.default, float):
+    if isinstance(f.default, float) or f.default == AUTO:
         return Constraint(section, f.name, NUMBER)
     return None
 
@@ -417,7 +516,12 @@ def _section(name: str, cls: type, data: Any) -> Any:
             converted[f.name] = value
         else:
             row = type_row(name, f)
-            converted[f.name] = value if row is None else check.check(row, value)
+            if f.default == AUTO and value == AUTO:
+                converted[f.name] = value
+            elif f.default == AUTO and (isinstance(value, (str, bool)) or value is None):
+                check.fail(f"{name}.{f.name}", value, f'must be a number or "{AUTO}"')
+            else:
+                converted[f.name] = value if row is None else check.check(row, value)
     return cls(**converted)
 
 

@@ -134,3 +134,11 @@ def stop_pool(pool) -> None:
     for process in processes:
         with contextlib.suppress(OSError, ValueError, AttributeError, AssertionError):
             process.join(5.0)
+    # join returns at once for a forkserver child once the forkserver is gone, before the kill
+    # has landed: wait until each worker is really gone, so that the sweep of the temporaries
+    # that follows sees their writers dead
+    deadline = time.monotonic() + 5.0
+    for process in processes:
+        pid = getattr(process, "pid", None)
+        while pid and pid_alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.01)

@@ -5,7 +5,7 @@ run would take more than :data:`MAX_STEPS` time steps, record more than
 :data:`MAX_RECORDED_INSTANTS` instants, need more memory than the machine has available, or
 record no instant after the set-up; and a DEM scene that no allowed time step can run (its
 stability limit below the smallest ``dt_s``) or whose stable steps would exceed the step limit.
-:func:`divergence_advice` says what can help after a run diverged.
+A run that diverges names the cure it measured (:func:`signatelec.engines.dem.run.measured_cure`).
 """
 
 from __future__ import annotations
@@ -150,7 +150,7 @@ def check_run(scene: Scene, *, concurrent: int = 1) -> RunBudget:
 
 def _check_steps(check: Checker, scene: Scene) -> None:
     """The step limit, and a stability limit that an allowed dt can meet within it."""
-    from signatelec.engines.dem.stability import stability_limit
+    from signatelec.physics.stability import stability_limit
 
     nu = scene.numerics
     limit = stability_limit(scene)
@@ -163,17 +163,19 @@ def _check_steps(check: Checker, scene: Scene) -> None:
             "(check the bearing's materials, numerics.linear_stiffness_n_m and the loads)",
         )
     minutes = MAX_STEPS * SECONDS_PER_STEP / 60.0
+    stable_steps = nu.duration_s / limit.dt_limit_s
+    if stable_steps > MAX_STEPS:
+        above = nu.dt_s > limit.dt_limit_s
+        where = f"above the {limit.describe()}; at" if above else f"{limit.describe()}: at any"
+        check.fail(
+            "numerics.dt_s",
+            nu.dt_s,
+            f"{where} stable dt_s over duration_s = {nu.duration_s:g} s the run needs "
+            f"{stable_steps:.3g} steps, more than the {MAX_STEPS:.0e} a run may take "
+            f"(~{minutes:.0f} min): shorten numerics.duration_s to at most "
+            f"{MAX_STEPS * limit.dt_limit_s:.3g} s",
+        )
     if nu.dt_s > limit.dt_limit_s:
-        stable_steps = nu.duration_s / limit.dt_limit_s
-        if stable_steps > MAX_STEPS:
-            check.fail(
-                "numerics.dt_s",
-                nu.dt_s,
-                f"above the {limit.describe()}; at a stable dt_s over duration_s = "
-                f"{nu.duration_s:g} s the run needs {stable_steps:.3g} steps, more than the "
-                f"{MAX_STEPS:.0e} a run may take (~{minutes:.0f} min): shorten "
-                f"numerics.duration_s to at most {MAX_STEPS * limit.dt_limit_s:.3g} s",
-            )
         return  # the engine refuses it, naming the stable step
     if scene.n_steps > MAX_STEPS:
         check.fail(
@@ -184,30 +186,3 @@ def _check_steps(check: Checker, scene: Scene) -> None:
             f"{SECONDS_PER_STEP * 1e6:g} us per step); raise numerics.dt_s (stable up to "
             f"{limit.dt_limit_s:.3g} s) or shorten numerics.duration_s",
         )
-
-
-#: Above this fraction of the stability limit a smaller dt may still help a diverging run.
-NEAR_LIMIT_FRACTION = 0.9
-
-
-def divergence_advice(scene: Scene) -> str:
-    """What may help a DEM run that diverged although its dt was within the stability limit."""
-    from signatelec.engines.dem.stability import stability_limit
-
-    nu, op = scene.numerics, scene.operating
-    limit = stability_limit(scene).dt_limit_s
-    ratio = nu.dt_s / limit
-    settings = ["lengthen procedure.spin_up_time_s (a gentler spin-up)"]
-    if op.clearance_m > 0.0:
-        settings.append(f"reduce operating.clearance_m (now {op.clearance_m:g} m)")
-    settings.append("lower operating.omega_rad_s")
-    advice = ", ".join(settings)
-    if ratio > NEAR_LIMIT_FRACTION and NEAR_LIMIT_FRACTION / 2 * limit >= DT_MIN_S:
-        return (
-            f"dt_s = {nu.dt_s:g} s is {ratio:.0%} of the stability limit ({limit:.3g} s): "
-            f"try numerics.dt_s = {NEAR_LIMIT_FRACTION / 2 * limit:.3g} s, or {advice}"
-        )
-    return (
-        f"dt_s = {nu.dt_s:g} s is {ratio:.0%} of the stability limit ({limit:.3g} s), so a "
-        f"smaller dt will not help: the scene itself throws a body out of range; {advice}"
-    )

@@ -21,7 +21,7 @@
 
   Both cheaper presets use symplectic Euler, whose stability limit with contact damping is
   about twice velocity Verlet's (damping at v_n rather than at the predicted velocity; see
-  :mod:`signatelec.engines.dem.stability`) for the same accuracy at a given dt. Near the
+  :mod:`signatelec.physics.stability`) for the same accuracy at a given dt. Near the
   ``fast`` preset's dt the per-sample work (electrical network and tables at 20 kHz) becomes a
   large part of the cost, so a larger dt no longer pays.
 
@@ -147,7 +147,7 @@ def apply_fidelity(scene: Scene, fidelity: str | Preset) -> Scene:
     )
     dt_s = preset.dt_s
     if preset.dt_limit_fraction is not None:
-        from signatelec.engines.dem.stability import stability_limit
+        from signatelec.physics.stability import stability_limit
 
         dt_s = preset.dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
     return scene.with_overrides(dt_s=dt_s)

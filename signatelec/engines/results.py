@@ -45,7 +45,7 @@ class SimulationResult:
     balls: pd.DataFrame
     signals: pd.DataFrame
     timings: dict = field(default_factory=dict)
-    stability: object | None = None  # engines.dem.stability.StabilityLimit for a DEM run
+    stability: object | None = None  # physics.stability.StabilityLimit for a DEM run
 
     def steady(self, table: str = "signals", settle_s: float = 0.0) -> pd.DataFrame:
         """Rows of the steady-running phase, from ``settle_s`` after the set-up ends."""

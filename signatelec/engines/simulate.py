@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from signatelec.config.scene import Scene
-from signatelec.engines.results import DivergenceError, SimulationResult
+from signatelec.engines.results import SimulationResult
 
 
 def simulate(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
@@ -17,7 +17,7 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
     whose run exceeds the limits of :mod:`signatelec.engines.budget` (checked first) and
     :class:`~signatelec.engines.results.DivergenceError` when a run leaves the physical range.
     """
-    from signatelec.engines.budget import check_run, divergence_advice
+    from signatelec.engines.budget import check_run
 
     scene = scene or Scene()
     check_run(scene)
@@ -27,12 +27,4 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
         return simulate_quasistatic(scene, progress=progress)
     from signatelec.engines.dem.run import simulate_dem
 
-    try:
-        return simulate_dem(scene, progress=progress)
-    except DivergenceError as exc:
-        # the engine names the step and the body; the advice depends on how close dt was to
-        # the stability limit, which decides whether a smaller dt can help at all
-        where, _, advice = str(exc).rpartition("; ")
-        if not where or "dt" not in advice:
-            raise
-        raise DivergenceError(f"{where}; {divergence_advice(scene)}") from None
+    return simulate_dem(scene, progress=progress)

@@ -6,7 +6,7 @@ seed effect) is compared with each **setting** of the ladder:
 
 - the quasi-static tier (:mod:`signatelec.engines.quasistatic.tier`);
 - the DEM with the seed's effects at several dt (1e-8 s up to the stability limit of
-  :func:`signatelec.engines.dem.stability.stability_limit`), with velocity Verlet or symplectic
+  :func:`signatelec.physics.stability.stability_limit`), with velocity Verlet or symplectic
   Euler;
 - the DEM with the linear (eq. 3) or Harris (eqs 10-11) contact law instead of Hertz;
 - the DEM without gravity (friction, cage and damping cannot go: the balls would not roll);
@@ -204,6 +204,7 @@ def base_scene(study_scene: StudyScene, config: StudyConfig) -> Scene:
         radial_load_n=study_scene.load_fraction * base.bearing.dynamic_load_rating_n,
         clearance_m=study_scene.clearance_m,
         omega_rad_s=config.omega_rad_s,
+        spin_up_time_s=base.procedure.spin_up_time_s,  # the paper's 5 ms for every scene
     )
     bpf = scene.bearing.ball_pass_frequency_hz(config.omega_rad_s)
     duration = scene.setup_time_s + SETTLE_S + config.n_periods / bpf
@@ -216,8 +217,8 @@ _WARM: set = set()
 def _warm_up(scene: Scene) -> None:
     """Load (or compile) the scene's kernel, or the quasi-static tier, before it is timed."""
     from signatelec.engines.dem.spec import KernelSpec
-    from signatelec.engines.dem.stability import stability_limit
     from signatelec.engines.simulate import simulate
+    from signatelec.physics.stability import stability_limit
 
     quasistatic = scene.numerics.fidelity == "quasistatic"
     key = "quasistatic" if quasistatic else KernelSpec.from_scene(scene)
@@ -263,7 +264,7 @@ def run_case(scene: Scene) -> tuple[object, dict]:
 
 
 def _setting_columns(setting: Setting, scene: Scene) -> dict:
-    from signatelec.engines.dem.stability import stability_limit
+    from signatelec.physics.stability import stability_limit
 
     nu, e = scene.numerics, scene.effects
     dem = nu.fidelity == "dem"

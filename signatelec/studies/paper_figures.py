@@ -366,6 +366,9 @@ def paper_cases(quick: bool = False, base=None) -> PaperCases:
     from signatelec.config.scene import Scene
 
     base = base or Scene()
+    # the paper's procedure: one spin-up (the base scene's) for every figure scene, whatever
+    # its clearance would choose
+    base = base.with_overrides(spin_up_time_s=base.procedure.spin_up_time_s)
     b = base.bearing
     omega = base.operating.omega_rad_s
     if quick:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -19,8 +20,6 @@ from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.dem.build import get_kernel, prepare
 from signatelec.engines.dem.records import OK, State, new_parameters, new_recording, new_state
 from signatelec.engines.dem.spec import KernelSpec
-from signatelec.engines.dem.stability import stability_limit
-from signatelec.engines.laws import scene_law
 from signatelec.engines.results import (
     LOADED_FORCE_N,
     MIN_SHIFT_M,
@@ -35,6 +34,8 @@ from signatelec.physics.contact import (
     mindlin_coefficient,
     tangential_stiffness_from_overlap,
 )
+from signatelec.physics.laws import scene_law
+from signatelec.physics.stability import stability_limit
 
 _CONTACT_NAMES = {
     0: "inner-raceway overlap",
@@ -177,7 +178,13 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
     return balls, signals
 
 
-def _divergence_message(scene: Scene, status: np.ndarray) -> str:
+def _phase_at(scene: Scene, time_s: float) -> str:
+    t1, t2, t3 = phase_times(scene)
+    return PHASES[int(np.searchsorted([t1, t2, t3], time_s))]
+
+
+def _divergence_message(scene: Scene, status: np.ndarray, cure: str | None = None) -> str:
+    """The step, time, phase, body and contact of a divergence, and its cure when measured."""
     z = scene.bearing.n_balls
     step, body, what = int(status[1]), int(status[2]), int(status[3])
     if body < z:
@@ -187,10 +194,64 @@ def _divergence_message(scene: Scene, status: np.ndarray) -> str:
     else:
         name = "inner ring"
     limit = "" if what == -1 else " beyond 10 % of the body radius"
-    return (
-        f"simulation diverged at step {step} (t = {(step + 1) * scene.numerics.dt_s:.6g} s): "
-        f"{name}, {_CONTACT_NAMES[what]}{limit}; reduce numerics.dt_s or check the scene"
+    time_s = (step + 1) * scene.numerics.dt_s
+    head = (
+        f"simulation diverged at step {step} (t = {time_s:.6g} s): {name}, "
+        f"{_CONTACT_NAMES[what]}{limit}, in the {_phase_at(scene, time_s)} phase; "
     )
+    return head + (cure or "reduce numerics.dt_s or check the scene")
+
+
+#: Steady running a cure probe must pass after the point where the run diverged, s.
+PROBE_MARGIN_S = 2e-3
+
+
+def _probe(scene: Scene, fail_s: float, **changes) -> bool:
+    """Whether ``scene`` with ``changes`` runs past the point where it diverged (with the set-up
+    moved by the changes) plus PROBE_MARGIN_S, without the electrical post-processing."""
+    try:
+        # a longer set-up may not fit the scene's duration: room first, then the probe's end
+        room = max(scene.numerics.duration_s, fail_s) + 1.0
+        trial = scene.with_overrides(**changes, duration_s=room)
+        shift = trial.setup_time_s - scene.setup_time_s
+        end = min(max(fail_s + shift, trial.setup_time_s) + PROBE_MARGIN_S, max(fail_s, 0.0) + 1.0)
+        trial = trial.with_overrides(duration_s=end)
+        trial = replace(trial, outputs=replace(trial.outputs, electrical=False))
+        simulate_dem(trial, cure=False)
+    except (DivergenceError, SceneError):
+        return False
+    return True
+
+
+def measured_cure(scene: Scene, status: np.ndarray) -> str:
+    """Rerun short probes of a diverged scene, a spin-up 2x then 4x longer, a halved dt, then
+    the other cage models, and say which runs past the point of divergence (the first that does)."""
+    fail_s = (int(status[1]) + 1) * scene.numerics.dt_s
+    t_spin = scene.procedure.spin_up_time_s
+    trials = []
+    if scene.procedure.spin_up and _phase_at(scene, fail_s) in ("spin_up", "steady"):
+        trials.append(("a longer spin-up", {"spin_up_time_s": 2.0 * t_spin}))
+        trials.append(("a longer spin-up", {"spin_up_time_s": 4.0 * t_spin}))
+    trials.append(("a smaller time step", {"dt_s": 0.5 * scene.numerics.dt_s}))
+    tried = []
+    for label, changes in trials:
+        key, value = next(iter(changes.items()))
+        setting = f"{'procedure' if key == 'spin_up_time_s' else 'numerics'}.{key} = {value:.3g}"
+        if _probe(scene, fail_s, **changes):
+            tried.append(f"cure measured: {label}, {setting}, runs past that point")
+            break
+        tried.append(f"{setting} ({label}) still diverges")
+    else:
+        others = [c for c in ("rigid", "none") if c != scene.effects.cage]
+        for cage in others:
+            other = replace(scene, effects=replace(scene.effects, cage=cage))
+            if _probe(other, fail_s):
+                tried.append(f'cure measured: another cage model, effects.cage = "{cage}", runs')
+                break
+            tried.append(f'effects.cage = "{cage}" still diverges')
+        else:
+            tried.append("check the scene")
+    return "; ".join(tried)
 
 
 def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray) -> None:
@@ -199,6 +260,7 @@ def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray)
 
     scene = result.scene
     z = scene.bearing.n_balls
+    steady = (result.signals["phase"] == "steady").to_numpy()
     el = bearing_electrics(
         fcon[:, :, 0],
         fcon[:, :, 1],
@@ -207,18 +269,26 @@ def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray)
         ball_xy_m=pos[:, :z],
         inner_ring_xy_m=pos[:, 2 * z],
         ball_ball_force_n=fcon[:, :, 4] if scene.effects.cage == "none" else None,
+        checked_instants=steady,
     )
+    # the set-up's first contacts are tiny and carry the whole current: information only
+    density = el.max_current_density_a_m2
+    result.timings["setup_peak_current_density_a_m2"] = float(density[~steady].max(initial=0.0))
+    result.timings["steady_peak_current_density_a_m2"] = float(density[steady].max(initial=0.0))
     result.signals["resistance_ohm"] = el.resistance_ohm
     result.signals["max_current_density_a_m2"] = el.max_current_density_a_m2
     for name in ("current_a", "potential_v", "inner_area_m2", "outer_area_m2"):
         result.balls[name] = getattr(el, name).ravel()
 
 
-def simulate_dem(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
+def simulate_dem(
+    scene: Scene | None = None, *, progress: bool = False, cure: bool = True
+) -> SimulationResult:
     """Simulate ``scene`` (default: the seed's scene) with the DEM kernel.
 
     Raises :class:`SceneError` when dt is above the stability limit (before running) and
-    :class:`DivergenceError` when the run leaves the physical range.
+    :class:`DivergenceError` when the run leaves the physical range; with ``cure``, its message
+    names the setting that cures it, measured by short probe runs (:func:`measured_cure`).
     """
     scene = scene or Scene()
     limit = stability_limit(scene)
@@ -263,7 +333,8 @@ def simulate_dem(scene: Scene | None = None, *, progress: bool = False) -> Simul
     if bar is not None:
         bar.close()
     if st.status[0] != OK:
-        raise DivergenceError(_divergence_message(scene, st.status))
+        remedy = measured_cure(scene, st.status) if cure else None
+        raise DivergenceError(_divergence_message(scene, st.status, remedy))
 
     balls, signals = _raw_tables(scene, rec_index, rec)
     timings = {
@@ -274,6 +345,11 @@ def simulate_dem(scene: Scene | None = None, *, progress: bool = False) -> Simul
         "run_cpu_s": run_cpu_s,
         "cpu_us_per_step": 1e6 * run_cpu_s / max(n_steps, 1),
         "kernel": spec.key,
+        "dt_s": scene.numerics.dt_s,
+        "spin_up_time_s": scene.procedure.spin_up_time_s,
+        "duration_s": scene.numerics.duration_s,
+        "stability_limit_s": limit.dt_limit_s,
+        "chosen": sorted(scene.auto),
     }
     result = SimulationResult(scene, balls, signals, timings, limit)
     if scene.outputs.electrical:

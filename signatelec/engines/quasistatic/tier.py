@@ -68,9 +68,9 @@ import pandas as pd
 
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.scene import Scene
-from signatelec.engines.laws import scene_law
 from signatelec.engines.results import PHASES, SimulationResult, phase_times
 from signatelec.physics.contact import NORMAL_LAWS
+from signatelec.physics.laws import scene_law
 from signatelec.physics.load_distribution import epsilon_from_shift
 from signatelec.physics.quasistatic import ring_equilibrium
 from signatelec.physics.ring_equilibrium import RingSolution, solver_loaded
@@ -129,7 +129,7 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingSo
     """Quasi-static equilibrium of the scene's inner ring at ball angles (T, Z).
 
     The equations of :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` with the
-    scene's contact law (the DEM's coefficients, :func:`signatelec.engines.laws.scene_law`),
+    scene's contact law (the DEM's coefficients, :func:`signatelec.physics.laws.scene_law`),
     clearance, speed, centrifugal force and gravity, solved by the same compiled Newton
     (:mod:`signatelec.physics.ring_equilibrium`) to ``TIER_RTOL``. ``unit_xy``: the balls'
     ``(sin psi, -cos psi)`` when the caller has them.

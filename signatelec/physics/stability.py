@@ -16,6 +16,25 @@ Force scales:
   ``ceil(Z/2) (m_b + I_b/R_b^2) a_t`` with a_t the peak orbital acceleration of the sinusoidal
   spin-up, ``r_p omega_c pi / (2 T_spin)``, but never more than friction can pass,
   ``max(mu, 0.05) F_s`` (also the value for a spin-up step).
+
+Settings a scene may leave to ``"auto"`` (:func:`auto_spin_up_time_s`, :func:`auto_dt_s`):
+
+- the spin-up. During the sinusoidal spin-up the cage-ball chain drives the unloaded balls with
+  :func:`~signatelec.physics.laws.chain_force_n` ~ omega / T_spin. The spin-up is long enough
+  when that force presses the chain's contact (ball/cage ball, or ball/ball without cage balls)
+  by at most :data:`CHAIN_OVERLAP_FRACTION` of the smaller radius (Hertz, eq. 6), well below the
+  kernel's 10 % abort, and, since the impacts of the balls on the cage grow with their speed,
+  by a further factor ``v / SPIN_UP_SPEED_M_S`` once the pitch speed v = r_p omega_c exceeds
+  that speed: T_spin ~ omega^2 above it. A radial clearance lets the unloaded balls rattle in
+  their pockets: that time grows by ``1 + clearance / (CLEARANCE_SCALE_FRACTION R_b)``. Never
+  shorter than the seed's 5 ms, never longer than SPIN_UP_MAX_S; the seed's 5 ms for the
+  quasi-static tier, which solves the steady phase only (no set-up dynamics to keep gentle).
+  Calibrated on the seed's scene (measured: 500 rad/s passes
+  with 5 ms, 1000 rad/s fails with 5 and passes with 10 ms, 2000 rad/s fails with 20 and passes
+  with 40 ms, 3000 rad/s fails with 40 and passes with 80 ms, a 247 um clearance at 500 rad/s
+  fails with 5 and passes with 10 ms); the rule keeps a factor of about 2 over those points and
+  the operating map (``signatelec study operating-map``) checks it over the catalogue;
+- the time step: :data:`DT_MARGIN` times the stability limit, never above :data:`DT_ACCURACY_S`.
 """
 
 from __future__ import annotations
@@ -32,8 +51,8 @@ from signatelec.config.bearing import (
     OUTER,
     contact_properties,
 )
-from signatelec.engines.laws import chain_force_n, preload_ball_force_n, scene_law
 from signatelec.physics.contact import mindlin_coefficient
+from signatelec.physics.laws import chain_force_n, preload_ball_force_n, scene_law
 
 
 @dataclass(frozen=True)
@@ -166,3 +185,57 @@ def rigid_cage_bodies(bearing, pocket_stiffness_n_m: float, pocket) -> list:
         ("rigid cage (translation)", springs, bearing.rigid_cage_mass_kg),
         ("rigid cage (rotation)", springs, rotation_mass),
     ]
+
+
+#: Overlap of the chain's contact under the spin-up chain force, as a share of the smaller radius.
+CHAIN_OVERLAP_FRACTION = 0.02
+#: Pitch speed above which the spin-up lengthens with the speed (ball impacts on the cage), m/s.
+SPIN_UP_SPEED_M_S = 5.0
+#: Shortest automatic spin-up: the seed's (section 4), s.
+SPIN_UP_MIN_S = 5.0e-3
+#: Longest automatic spin-up (hundreds of balls, the many-ball limit, would ask for minutes), s.
+SPIN_UP_MAX_S = 1.0
+#: Clearance, as a share of the ball radius, that doubles the automatic spin-up.
+CLEARANCE_SCALE_FRACTION = 0.02
+#: Share of the stability limit an automatic time step uses.
+DT_MARGIN = 0.9
+#: Largest automatic time step: the accuracy the accuracy-cost study asks of the seed's scene
+#: (docs/accuracy_cost/accuracy_cost.md: the paper's dt = 1e-7 s), s.
+DT_ACCURACY_S = 1e-7
+
+
+def chain_contact(scene) -> tuple[int, float]:
+    """The contact type that carries the spin-up chain force and the radius its overlap is
+    measured against: the ball/cage-ball contact and the cage-ball radius, the ball/pocket
+    contact and the ball radius for a rigid cage, else ball/ball."""
+    b = scene.bearing
+    if scene.effects.cage == "balls":
+        return BALL_CAGE, min(b.cage_ball_radius_m, b.ball_radius_m)
+    if scene.effects.cage == "rigid":
+        return BALL_POCKET, b.ball_radius_m
+    return BALL_BALL, b.ball_radius_m
+
+
+def auto_spin_up_time_s(scene) -> float:
+    """Spin-up time for ``scene`` (see the module docstring), s, rounded up to 0.1 ms."""
+    b, op = scene.bearing, scene.operating
+    if scene.numerics.fidelity == "quasistatic":
+        return SPIN_UP_MIN_S
+    kind, radius = chain_contact(scene)
+    coef, n = scene_law(scene)
+    allowed_n = coef[kind] * (CHAIN_OVERLAP_FRACTION * radius) ** n
+    omega_c = b.cage_speed_rad_s(op.omega_rad_s)
+    inertia_mass = b.ball_mass_kg + b.ball_inertia_kg_m2 / b.ball_radius_m**2
+    # chain_force_n = ceil(Z/2) m_eff r_p omega_c pi / (2 T): the T that passes allowed_n
+    per_time = math.ceil(b.n_balls / 2) * inertia_mass * b.pitch_radius_m * omega_c * math.pi / 2
+    speed = max(1.0, b.pitch_radius_m * omega_c / SPIN_UP_SPEED_M_S)
+    rattle = 1.0 + max(op.clearance_m, 0.0) / (CLEARANCE_SCALE_FRACTION * b.ball_radius_m)
+    t_spin = min(SPIN_UP_MAX_S, max(SPIN_UP_MIN_S, per_time / allowed_n * speed * rattle))
+    if t_spin == SPIN_UP_MIN_S:
+        return t_spin
+    return math.ceil(t_spin * 1e4 - 1e-9) * 1e-4
+
+
+def auto_dt_s(scene) -> float:
+    """Time step for ``scene``: DT_MARGIN times its stability limit, at most DT_ACCURACY_S, s."""
+    return min(DT_ACCURACY_S, DT_MARGIN * stability_limit(scene).dt_limit_s)

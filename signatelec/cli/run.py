@@ -1,0 +1,277 @@
+"""Commands that run the model: ``simulate``, ``bearings``, ``bench``, ``figures``."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import click
+
+from signatelec.cli.common import (
+    EXIT_DIVERGED,
+    InputError,
+    Stopped,
+    _stop_code,
+    _stop_word,
+    check_writable_file,
+    claim_output,
+    cli,
+    load_scene,
+    scene_source,
+    write_output,
+)
+from signatelec.config.scene import SceneError
+from signatelec.engines.fidelity import FIDELITY_NAMES
+
+
+@cli.command()
+@click.option("--scene", "scene_file", type=str, default=None, help="Scene TOML (default: seed).")
+@click.option("--radial-load", "radial_load_n", type=float, help="Radial load F_r, N.")
+@click.option("--clearance", "clearance_m", type=float, help="Radial clearance (<0: preload), m.")
+@click.option("--omega", "omega_rad_s", type=float, help="Inner-ring speed, rad/s.")
+@click.option("--duration", "duration_s", type=float, help="Simulated time, s.")
+@click.option("--dt", "dt_s", type=float, help="Time step, s.")
+@click.option(
+    "--fidelity",
+    type=click.Choice(FIDELITY_NAMES),
+    default=None,
+    help="Tier (quasistatic: steady phase, ms; dem) or preset (fast, balanced, reference; "
+    "see README); an explicit --dt wins over the preset's.",
+)
+@click.option(
+    "--bearing",
+    "designation",
+    type=str,
+    default=None,
+    help="Catalogue bearing replacing the scene's (see `signatelec bearings`).",
+)
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--quiet", is_flag=True, help="No progress bar or summary.")
+def simulate(
+    scene_file,
+    radial_load_n,
+    clearance_m,
+    omega_rad_s,
+    duration_s,
+    dt_s,
+    fidelity,
+    designation,
+    out,
+    quiet,
+):
+    """Simulate a scene; write DIR/balls.parquet and DIR/signals.parquet.
+
+    The time step, spin-up and duration not given are chosen for the scene (dt within its
+    stability limit, at most 1e-7 s; a spin-up gentle enough for its speed, cage and clearance;
+    a few ball passes of steady running); the summary says what was chosen.
+    """
+    from signatelec.engines.results import DivergenceError
+    from signatelec.engines.simulate import simulate as run
+
+    overrides = {
+        "radial_load_n": radial_load_n,
+        "clearance_m": clearance_m,
+        "omega_rad_s": omega_rad_s,
+        "duration_s": duration_s,
+        "dt_s": dt_s,
+    }
+    scene = load_scene(scene_file, **overrides)
+    if designation is not None:
+        from signatelec.config.bearing import BearingError
+        from signatelec.config.catalogue import catalogue_bearing
+
+        try:
+            scene = replace(scene, bearing=catalogue_bearing(designation))
+        except (BearingError, SceneError) as exc:
+            raise InputError(f"--bearing {designation!r}: {exc}") from None
+    if fidelity is not None:
+        from signatelec.engines.fidelity import apply_fidelity
+
+        try:
+            scene = apply_fidelity(scene, fidelity)
+            if dt_s is not None:  # an explicit --dt wins over the preset's
+                scene = scene.with_overrides(dt_s=dt_s)
+        except SceneError as exc:
+            where = scene_source(scene_file, overrides)
+            raise InputError(f"{where} at --fidelity {fidelity}: {exc}") from None
+    from signatelec.engines.budget import check_run
+    from signatelec.io import is_simulate_output
+
+    try:
+        check_run(scene)  # steps, recorded instants, memory: before anything is written
+    except SceneError as exc:
+        raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
+    claim_output(out, "simulate", previous=is_simulate_output)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = run(scene, progress=not quiet)
+        for w in caught:
+            click.echo(f"signatelec: warning: {w.message}", err=True)
+    except SceneError as exc:
+        raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
+    except DivergenceError as exc:
+        raise Stopped(f"{exc}; nothing written", EXIT_DIVERGED) from None
+    except KeyboardInterrupt as exc:
+        raise Stopped(f"{_stop_word(exc)}; nothing written", _stop_code(exc)) from None
+    write_output(lambda: result.write(out))
+    if not quiet:
+        click.echo(summary(result, out))
+
+
+@cli.command()
+@click.option("--csv", "as_csv", is_flag=True, help="Every column, sources included, as CSV.")
+def bearings(as_csv):
+    """List the bearing catalogue (`--bearing`, `[bearing] designation`): geometry, ratings,
+    speeds, sources and the defect frequencies as orders of the shaft speed."""
+    from signatelec.config.catalogue import list_bearings
+
+    table = list_bearings()
+    if as_csv:
+        click.echo(table.to_csv(), nl=False)
+        return
+    mm = 1e3
+    view = table.assign(
+        ball_mm=table["ball_diameter_m"] * mm,
+        pitch_mm=table["pitch_diameter_m"] * mm,
+        r_in_mm=table["inner_race_radius_m"] * mm,
+        r_out_mm=table["outer_race_radius_m"] * mm,
+        c_r_kn=table["dynamic_load_rating_n"] / 1e3,
+        c_0r_kn=table["static_load_rating_n"] / 1e3,
+    )[
+        [
+            "n_balls",
+            "ball_mm",
+            "pitch_mm",
+            "r_in_mm",
+            "r_out_mm",
+            "c_r_kn",
+            "c_0r_kn",
+            "limiting_speed_rpm",
+            "mass_kg",
+            "ftf_order",
+            "bpfo_order",
+            "bpfi_order",
+            "bsf_order",
+        ]
+    ]
+    click.echo(view.to_string(float_format=lambda v: f"{v:.5g}", na_rep="-"))
+    click.echo("sources: signatelec bearings --csv; orders: multiples of the shaft frequency")
+
+
+def _chosen(scene, key: str) -> str:
+    return " (auto)" if key in scene.auto else ""
+
+
+def summary(result, out: str | None = None) -> str:
+    """A readable summary of a run: timings and steady-state figures."""
+    sc = result.scene
+    t = result.timings
+    st = result.steady()
+    b = sc.bearing
+    lines = [
+        f"scene: F_r = {sc.operating.radial_load_n:g} N, clearance = "
+        f"{sc.operating.clearance_m * 1e6:g} um, omega = {sc.operating.omega_rad_s:g} rad/s, "
+        f"dt = {sc.numerics.dt_s:.3g} s{_chosen(sc, 'numerics.dt_s')}, spin-up = "
+        f"{sc.procedure.spin_up_time_s * 1e3:.3g} ms{_chosen(sc, 'procedure.spin_up_time_s')}, "
+        f"{sc.numerics.duration_s:.4g} s{_chosen(sc, 'numerics.duration_s')}",
+        f"run: {t['n_steps']} steps in {t['run_s']:.3f} s ({t['us_per_step']:.3f} us/step), "
+        f"compile/load {t['compile_s']:.2f} s"
+        if t.get("tier") != "quasistatic"
+        else f"run: quasi-static tier, {t['n_instants']} steady instants in "
+        f"{t['total_s'] * 1e3:.2f} ms, compile/load {t['compile_s']:.2f} s",
+    ]
+    if len(st):
+        kin = b.cage_speed_rad_s(sc.operating.omega_rad_s)
+        lines.append(
+            f"steady state: delta_r = {st.delta_r_m.mean() * 1e6:.2f} um, epsilon = "
+            f"{st.epsilon.mean():.3f}, max ball load = {st.max_ball_load_n.mean():.1f} N, "
+            f"loaded balls = {st.loaded_balls.mean():.2f}, cage speed = "
+            f"{st.cage_speed_rad_s.mean():.2f} rad/s (kinematic {kin:.2f})"
+        )
+        if "resistance_ohm" in st:
+            lines.append(f"resistance: mean {st.resistance_ohm.mean() * 1e3:.4f} mOhm")
+    if out:
+        lines.append(f"wrote {out}/balls.parquet, {out}/signals.parquet")
+    return "\n".join(lines)
+
+
+@cli.command()
+@click.option(
+    "--out",
+    "out",
+    type=str,
+    default="bench.json",
+    show_default=True,
+    help="JSON file for the figures.",
+)
+@click.option(
+    "--duration",
+    "duration_s",
+    type=float,
+    default=0.03,
+    show_default=True,
+    help="Simulated time per case, s.",
+)
+@click.option(
+    "--fresh-cache/--warm-cache",
+    default=True,
+    show_default=True,
+    help="Compile into an empty cache so compile time is measured.",
+)
+@click.option(
+    "--case",
+    "cases",
+    multiple=True,
+    help="Run only this case (repeatable): seed, cage=none, contact_law=linear, minimal, ... "
+    "(default: every case).",
+)
+def bench(out, duration_s, fresh_cache, cases):
+    """Cost of the seed scene and of each scene option (us per step, compile apart)."""
+    from signatelec.studies.bench import format_table, run_bench, select_cases
+
+    check_writable_file(out, suffixes=(".json",))
+    try:
+        select_cases(cases)
+        report = run_bench(duration_s=duration_s, fresh_cache=fresh_cache, cases=cases)
+    except SceneError as exc:
+        raise InputError(str(exc)) from None
+    click.echo(format_table(report))
+    tmp = Path(out).with_name(Path(out).name + ".tmp")
+    tmp.write_text(json.dumps(report, indent=2))
+    tmp.replace(out)
+    click.echo(f"wrote {out}")
+
+
+@cli.command()
+@click.option("--out", "out", type=str, required=True, help="Output directory for the PNGs.")
+@click.option("--quick", is_flag=True, help="Short runs (set-up + 2 ms): a check, not the figures.")
+@click.option("--quiet", is_flag=True, help="No progress bar or file list.")
+def figures(out, quick, quiet):
+    """Regenerate the seed's figures 6-11: DIR/figure_6_9.png, figure_7_10.png, figure_8_11.png."""
+    from signatelec.engines.results import DivergenceError
+    from signatelec.io import holds_only, replace_directory
+    from signatelec.studies.paper_figures import FIGURE_FILES, paper_figures
+
+    def previous(directory: Path) -> bool:  # figures written before the marker existed
+        return holds_only(directory, FIGURE_FILES)
+
+    claim_output(out, "figures", previous=previous)
+    written: list[Path] = []
+
+    def write() -> None:
+        with replace_directory(out, "figures", previous=previous) as tmp:
+            written.extend(Path(out) / p.name for p in paper_figures(tmp, **options))
+
+    options = {"quick": quick, "progress": not quiet}
+    try:
+        write_output(write)
+    except SceneError as exc:
+        raise InputError(str(exc)) from None
+    except DivergenceError as exc:
+        raise Stopped(f"{exc}; nothing written", EXIT_DIVERGED) from None
+    if not quiet:
+        for path in written:
+            click.echo(f"wrote {path}")

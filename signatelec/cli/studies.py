@@ -1,0 +1,88 @@
+"""``signatelec study ...``: the accuracy-cost study and the operating map."""
+
+from __future__ import annotations
+
+import click
+
+from signatelec.cli.common import (
+    EXIT_INCOMPLETE,
+    InputError,
+    Stopped,
+    claim_output,
+    cli,
+)
+
+
+@cli.group()
+def study() -> None:
+    """Studies of the model (accuracy-cost, ...)."""
+
+
+@study.command("accuracy-cost")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--quick", is_flag=True, help="One scene, three settings: a pipeline check.")
+@click.option("--fresh", is_flag=True, help="Ignore finished cases cached in DIR/.cache.")
+@click.option("--quiet", is_flag=True, help="No progress bar or file list.")
+def accuracy_cost(out, quick, fresh, quiet):
+    """Fidelity ladder against a dt = 1e-8 s reference: DIR/accuracy_cost.{parquet,md,png}."""
+    from signatelec.io import holds_only, write_marker
+    from signatelec.studies.accuracy_cost import run_study
+
+    own = ("accuracy_cost.parquet", "accuracy_cost.md", "accuracy_cost.png", ".cache")
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, "study accuracy-cost", previous=previous, replaced=False)
+    try:
+        run_study(
+            out, quick=quick, progress=not quiet, fresh=fresh, log=None if quiet else click.echo
+        )
+        write_marker(out, "study accuracy-cost")
+    except OSError as exc:
+        raise Stopped(
+            f"--out {out!r}: cannot write there ({exc.strerror or exc}); finished cases are kept "
+            "in DIR/.cache: rerun the same command to resume",
+            EXIT_INCOMPLETE,
+        ) from None
+
+
+@study.command("operating-map")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--quick", is_flag=True, help="Three cells, two ball passes: a pipeline check.")
+@click.option(
+    "--cage",
+    "cages",
+    multiple=True,
+    default=("balls",),
+    show_default=True,
+    help="Cage model(s) to map (repeatable; see the scene's effects.cage).",
+)
+@click.option("--fresh", is_flag=True, help="Ignore finished cells cached in DIR/.cache.")
+@click.option("--quiet", is_flag=True, help="No progress or file list.")
+def operating_map(out, quick, cages, fresh, quiet):
+    """Every catalogue bearing at its rated speeds with the defaults: DIR/operating_map.{parquet,
+    md,png}."""
+    from signatelec.config.scene import OPTION_TABLE
+    from signatelec.studies.operating_map import run_study
+
+    option = OPTION_TABLE[("effects", "cage")]
+    for cage in cages:
+        if not option.accepts(cage):
+            raise InputError(f"--cage {cage!r}: {option.rule}")
+    from signatelec.io import holds_only, write_marker
+
+    own = ("operating_map.parquet", "operating_map.md", "operating_map.png", ".cache")
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, "study operating-map", previous=previous, replaced=False)
+    try:
+        paths = run_study(
+            out, quick=quick, cages=cages, fresh=fresh, log=None if quiet else click.echo
+        )
+        write_marker(out, "study operating-map")
+    except OSError as exc:
+        raise Stopped(
+            f"--out {out!r}: cannot write there ({exc.strerror or exc}); finished cells are kept "
+            "in DIR/.cache: rerun the same command to resume",
+            EXIT_INCOMPLETE,
+        ) from None
+    if not quiet:
+        for path in paths.values():
+            click.echo(f"wrote {path}")

@@ -1,0 +1,290 @@
+"""The operating map: every catalogue bearing at its rated speeds, with nothing but defaults.
+
+Each cell is one bearing of :mod:`signatelec.config.catalogue`, one inner-ring speed (geometric
+from :data:`LOWEST_SPEED_RAD_S` to the bearing's limiting speed), one radial load (a share of
+C_r) and one clearance (a preload, zero, or the bearing's normal clearance), for each cage model
+asked for. The scene keeps every default: the time step, spin-up and duration it chooses itself
+(:func:`signatelec.config.scene.resolve_auto`), except a short steady window (settling, then
+:data:`BALL_PASSES` ball passes: the duration follows the ball-pass period) and the energy
+balance (``outputs.energy``). A cell records:
+
+- completion (or the divergence message, with its measured cure);
+- the energy balance: ``|W_in - D - E_el - E_kin| / W_in`` at the end of the run;
+- the largest ball/raceway overlap at the recorded instants, as a share of the ball radius (the
+  kernel aborts at 10 %);
+- the steady state against the quasi-static tier on the same recorded instants: mean resistance
+  within :data:`RESISTANCE_RTOL`, mean largest ball load within :data:`LOAD_RTOL`.
+
+Normal clearance: the middle of the group N radial internal clearance of ISO 5753-1:2009
+(table 1, deep-groove ball bearings) for the bearing's bore, used as the model's clearance
+Delta_r (seed eq. 14). Preload: 5 um, or half the ISO 76 preload limit when that is smaller.
+
+Finished cells are cached in ``OUT/.cache`` (an interrupted map resumes; ``fresh`` starts over).
+Writes ``operating_map.parquet``, ``operating_map.md`` and ``operating_map.png``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from signatelec._version import __version__
+from signatelec.config.bearing import INNER, OUTER
+from signatelec.config.catalogue import catalogue_bearing, catalogue_entry, list_bearings
+from signatelec.config.scene import Scene, SceneError, preload_limit_m
+from signatelec.physics.electrical import CurrentDensityWarning
+from signatelec.physics.laws import scene_law
+from signatelec.studies.operating_map_report import write_outputs
+
+LOWEST_SPEED_RAD_S = 10.0
+N_SPEEDS = 5
+LOAD_FRACTIONS = (0.0, 0.05, 0.2, 0.5)
+#: Steady running kept after the set-up: settling, then this many outer-race ball passes.
+SETTLE_S = 2e-3
+BALL_PASSES = 3
+RESISTANCE_RTOL = 0.01
+LOAD_RTOL = 0.02
+#: Largest energy-balance error a completed cell may show (share of the work put in).
+ENERGY_RTOL = 0.01
+PRELOAD_M = 5e-6
+#: ISO 5753-1:2009 table 1, group N radial internal clearance of deep-groove ball bearings:
+#: (bore over, bore up to and including) in mm -> (min, max) in um.
+ISO_5753_GROUP_N_UM = {
+    (10.0, 18.0): (3.0, 18.0),
+    (18.0, 24.0): (5.0, 20.0),
+    (24.0, 30.0): (5.0, 20.0),
+    (30.0, 40.0): (6.0, 20.0),
+    (40.0, 50.0): (6.0, 23.0),
+}
+#: The seed's bearing is the 6208's 2D model: its bore and speeds are the 6208's.
+SEED_AS = "6208"
+
+
+def normal_clearance_m(designation: str) -> float:
+    """Middle of the ISO 5753-1 group N clearance for the bearing's bore, m."""
+    entry = catalogue_entry(SEED_AS if designation == "seed" else designation)
+    bore_mm = entry.bore_diameter_m * 1e3
+    for (low, high), (cmin, cmax) in ISO_5753_GROUP_N_UM.items():
+        if low < bore_mm <= high:
+            return 0.5 * (cmin + cmax) * 1e-6
+    raise ValueError(f"bore {bore_mm:g} mm: outside the ISO 5753-1 rows of this study")
+
+
+def limiting_speed_rad_s(designation: str) -> float:
+    rpm = catalogue_entry(SEED_AS if designation == "seed" else designation).limiting_speed_rpm
+    return rpm * 2.0 * math.pi / 60.0
+
+
+def speeds_rad_s(designation: str, n: int = N_SPEEDS) -> np.ndarray:
+    return np.geomspace(LOWEST_SPEED_RAD_S, limiting_speed_rad_s(designation), n)
+
+
+@dataclass(frozen=True)
+class Cell:
+    designation: str
+    omega_rad_s: float
+    load_fraction: float
+    clearance: str  # "preload", "zero" or "normal"
+    cage: str = "balls"
+
+    def key(self) -> str:
+        text = json.dumps(asdict(self) | {"version": __version__}, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def clearance_m(cell: Cell) -> float:
+    if cell.clearance == "zero":
+        return 0.0
+    if cell.clearance == "normal":
+        return normal_clearance_m(cell.designation)
+    bearing = catalogue_bearing(cell.designation)
+    return -min(PRELOAD_M, 0.5 * preload_limit_m(bearing))
+
+
+def cell_scene(cell: Cell, ball_passes: int = BALL_PASSES) -> Scene:
+    """The cell's scene: defaults, the energy balance on, a short steady window."""
+    bearing = catalogue_bearing(cell.designation)
+    scene = Scene(bearing=bearing).with_overrides(
+        radial_load_n=cell.load_fraction * bearing.dynamic_load_rating_n,
+        clearance_m=clearance_m(cell),
+        omega_rad_s=cell.omega_rad_s,
+        energy=True,
+        cage=cell.cage,
+    )
+    passes_hz = bearing.ball_pass_frequency_hz(cell.omega_rad_s)
+    return scene.with_overrides(duration_s=scene.setup_time_s + SETTLE_S + ball_passes / passes_hz)
+
+
+def cells(
+    designations: Sequence[str] | None = None,
+    cages: Sequence[str] = ("balls",),
+    n_speeds: int = N_SPEEDS,
+) -> list[Cell]:
+    designations = list(designations or list_bearings().index)
+    return [
+        Cell(d, float(w), f, c, cage)
+        for cage in cages
+        for d in designations
+        for w in speeds_rad_s(d, n_speeds)
+        for f in LOAD_FRACTIONS
+        for c in ("preload", "zero", "normal")
+    ]
+
+
+#: The quick map: three cells spanning speed, load, clearance and bearing size.
+QUICK_CELLS = (
+    Cell("seed", 500.0, 0.2, "zero"),
+    Cell("6205", float(speeds_rad_s("6205")[-1]), 0.05, "normal"),
+    Cell("6308", float(speeds_rad_s("6308")[2]), 0.5, "preload"),
+)
+
+
+def largest_overlap_fraction(scene: Scene, balls: pd.DataFrame) -> float:
+    """Largest ball/raceway overlap at the recorded instants / ball radius (inverse of the law)."""
+    coef, n = scene_law(scene)
+    overlaps = [
+        (balls[col].clip(lower=0.0).max() / coef[kind]) ** (1.0 / n)
+        for col, kind in (("inner_force_n", INNER), ("outer_force_n", OUTER))
+    ]
+    return float(max(overlaps) / scene.bearing.ball_radius_m)
+
+
+def run_cell(cell: Cell, ball_passes: int = BALL_PASSES) -> dict:
+    """One cell of the map (see the module docstring), as a flat record."""
+    from signatelec.engines.results import DivergenceError
+    from signatelec.engines.simulate import simulate
+
+    row = asdict(cell) | {"status": "ok", "message": ""}
+    try:
+        scene = cell_scene(cell, ball_passes)
+    except SceneError as exc:
+        return row | {"status": "refused", "message": str(exc)}
+    row |= {
+        "clearance_m": scene.operating.clearance_m,
+        "radial_load_n": scene.operating.radial_load_n,
+        "dt_s": scene.numerics.dt_s,
+        "spin_up_time_s": scene.procedure.spin_up_time_s,
+        "duration_s": scene.numerics.duration_s,
+    }
+    t0 = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            dem = simulate(scene)
+        except DivergenceError as exc:
+            row["run_s"] = time.perf_counter() - t0
+            return row | {"status": "diverged", "message": str(exc)}
+    row["run_s"] = time.perf_counter() - t0
+    row["warnings"] = " | ".join(str(w.message) for w in caught)
+    row["current_density_warning"] = any(
+        isinstance(w.message, CurrentDensityWarning) for w in caught
+    )
+    sig = dem.signals
+    end = sig.iloc[-1]
+    stored = end.dissipated_j + end.elastic_j + end.kinetic_j
+    row["energy_error"] = float(abs(end.work_in_j - stored) / max(end.work_in_j, 1e-300))
+    row["largest_overlap_fraction"] = largest_overlap_fraction(scene, dem.balls)
+    tier_scene = scene.with_overrides(
+        fidelity="quasistatic",
+        spin_up_time_s=scene.procedure.spin_up_time_s,
+        dt_s=scene.numerics.dt_s,
+        duration_s=scene.numerics.duration_s,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tier = simulate(replace(tier_scene, outputs=replace(tier_scene.outputs, energy=False)))
+    d, q = dem.steady(settle_s=SETTLE_S), tier.steady(settle_s=SETTLE_S)
+    row["resistance_error"] = float(d.resistance_ohm.mean() / q.resistance_ohm.mean() - 1.0)
+    row["load_error"] = float(d.max_ball_load_n.mean() / q.max_ball_load_n.mean() - 1.0)
+    row["mean_resistance_ohm"] = float(d.resistance_ohm.mean())
+    row["mean_max_ball_load_n"] = float(d.max_ball_load_n.mean())
+    return classify(row)
+
+
+def classify(row: dict) -> dict:
+    """The status of a completed cell: ``ok``, or ``off:`` and the checks it misses. A steady
+    current density above the seed's 0.1 A/mm^2 is physics (small contacts at light load), not
+    a numerical fault: it is kept in ``current_density_warning``, apart from the status; any
+    other warning counts."""
+    if row["status"] in ("diverged", "refused"):
+        return row
+    other = [w for w in (row.get("warnings") or "").split(" | ") if w]
+    other = [w for w in other if not w.startswith("contact current density")]
+    if "current_density_warning" not in row:  # cells cached before the column existed
+        row["current_density_warning"] = "contact current density" in (row.get("warnings") or "")
+    failed = [
+        name
+        for name, bad in (
+            ("energy", not row["energy_error"] <= ENERGY_RTOL),
+            ("resistance", not abs(row["resistance_error"]) <= RESISTANCE_RTOL),
+            ("ball load", not abs(row["load_error"]) <= LOAD_RTOL),
+            ("warning", bool(other)),
+        )
+        if bad
+    ]
+    row["status"] = "off: " + ", ".join(failed) if failed else "ok"
+    return row
+
+
+def run_map(
+    todo: Sequence[Cell],
+    out_dir: str | Path,
+    *,
+    ball_passes: int = BALL_PASSES,
+    fresh: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> pd.DataFrame:
+    """Run the cells (finished ones from ``OUT/.cache``) and return one row per cell."""
+    cache = Path(out_dir) / ".cache"
+    cache.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for i, cell in enumerate(todo):
+        path = cache / f"{cell.key()}-{ball_passes}.json"
+        if path.exists() and not fresh:
+            row = classify(json.loads(path.read_text()))
+        else:
+            row = run_cell(cell, ball_passes)
+            tmp = path.with_suffix(".tmp")
+            tmp.write_text(json.dumps(row))
+            tmp.replace(path)
+        rows.append(row)
+        if log is not None:
+            log(
+                f"[{i + 1}/{len(todo)}] {cell.designation} omega={cell.omega_rad_s:.4g} "
+                f"F_r={cell.load_fraction:g} C_r {cell.clearance} {cell.cage}: {row['status']}"
+            )
+    return pd.DataFrame(rows)
+
+
+def run_study(
+    out_dir: str | Path,
+    *,
+    quick: bool = False,
+    cages: Sequence[str] = ("balls",),
+    fresh: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> dict[str, Path]:
+    """Run the map (``quick``: :data:`QUICK_CELLS`, two ball passes) and write its outputs."""
+    out = Path(out_dir)
+    t0 = time.perf_counter()
+    if quick:
+        todo = [replace(c, cage=cage) for cage in cages for c in QUICK_CELLS]
+        table = run_map(todo, out, ball_passes=2, fresh=fresh, log=log)
+    else:
+        table = run_map(cells(cages=cages), out, fresh=fresh, log=log)
+    criteria = {
+        "ball_passes": 2 if quick else BALL_PASSES,
+        "energy_rtol": ENERGY_RTOL,
+        "resistance_rtol": RESISTANCE_RTOL,
+        "load_rtol": LOAD_RTOL,
+    }
+    return write_outputs(table, out, criteria, time.perf_counter() - t0)

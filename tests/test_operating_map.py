@@ -1,0 +1,54 @@
+"""The operating map: its grid (ISO 5753-1 clearances, geometric speeds) and the quick map."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from signatelec.cli import cli
+from signatelec.config.catalogue import CATALOGUE
+from signatelec.studies.operating_map import (
+    LOAD_FRACTIONS,
+    cells,
+    limiting_speed_rad_s,
+    normal_clearance_m,
+    speeds_rad_s,
+)
+
+
+def test_normal_clearance_is_the_middle_of_iso_5753_group_n():
+    # ISO 5753-1:2009 table 1, group N: bore 10-18 mm 3-18 um, 24-30 mm 5-20 um, 30-40 mm 6-20 um
+    assert normal_clearance_m("6203") == pytest.approx(10.5e-6)
+    assert normal_clearance_m("6205") == pytest.approx(12.5e-6)
+    assert normal_clearance_m("6208") == pytest.approx(13e-6)
+    assert normal_clearance_m("seed") == normal_clearance_m("6208")  # the seed's bearing
+
+
+def test_the_grid_spans_each_bearings_rated_speeds():
+    # SKF: limiting speed of the 6205, 18 000 rpm
+    assert limiting_speed_rad_s("6205") == pytest.approx(18000 * np.pi / 30)
+    w = speeds_rad_s("6205")
+    assert w[0] == 10.0 and w[-1] == pytest.approx(18000 * np.pi / 30) and len(w) >= 5
+    np.testing.assert_allclose(w[1:] / w[:-1], w[1] / w[0], rtol=1e-12)  # geometric
+    grid = cells()
+    assert len(grid) == len(CATALOGUE) * len(w) * len(LOAD_FRACTIONS) * 3
+    assert set(LOAD_FRACTIONS) == {0.0, 0.05, 0.2, 0.5}
+
+
+def test_quick_map_runs_and_writes_its_outputs(tmp_path):
+    out = tmp_path / "map"
+    res = CliRunner().invoke(cli, ["study", "operating-map", "--quick", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    table = pd.read_parquet(out / "operating_map.parquet")
+    assert len(table) == 3 and (out / "operating_map.png").stat().st_size > 0
+    assert "# Operating map" in (out / "operating_map.md").read_text()
+    assert (table.status != "diverged").all()
+    # the energy balance closes (work in = dissipated + elastic + kinetic)
+    assert (table.energy_error < 0.01).all()
+    seed = table[table.designation == "seed"].iloc[0]
+    assert seed.status == "ok"
+    assert abs(seed.resistance_error) < 0.01 and abs(seed.load_error) < 0.02
+    bad = CliRunner().invoke(cli, ["study", "operating-map", "--cage", "x", "--out", str(out)])
+    assert bad.exit_code == 2 and "--cage 'x': must be one of" in bad.output
