@@ -501,6 +501,7 @@ def resumed_dataset(resume_spec, tmp_path_factory) -> tuple[Path, int]:
     return out, done_at_kill
 
 
+@pytest.mark.slow
 def test_kill_9_then_rerun_gives_the_clean_run(resumed_dataset, dask_dataset):
     out, done_at_kill = resumed_dataset
     assert 3 <= done_at_kill < 12  # killed part-way

@@ -155,6 +155,7 @@ def small_model(recipe, tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_default_recipe_on_held_out_runs(recipe):
     """What the default model's recipe must achieve on runs it never saw, with a third of the
     shipped runs: windows of 12.5-200 ms, white noise 0.05-1 %. Measured: F_r MAPE 0.61 %,
@@ -501,6 +502,7 @@ def test_estimate_bad_options(small_model, capsys, args, expected):
     assert code == 2 and len(err) == 1 and expected in err[0]
 
 
+@pytest.mark.slow
 def test_train_and_estimate(tmp_path, capsys):
     """`signatelec train` on a feature table, and on a directory of measured traces."""
     table = pd.read_parquet(DEFAULT_TABLE)
@@ -534,6 +536,7 @@ def test_train_and_estimate(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_default_model_built_once(tmp_path, monkeypatch, capsys):
     """Without --model: built from the shipped table on first use, then read from the cache."""
     monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))

@@ -233,6 +233,7 @@ def test_a_full_disk_during_simulate_leaves_the_previous_output(small_tmpfs):
     assert sorted(p.name for p in small_tmpfs.iterdir()) == ["filler", "run"]
 
 
+@pytest.mark.slow
 def test_a_full_disk_during_generate_exits_75_and_the_rerun_completes(small_tmpfs, tmp_path):
     spec = write_spec(
         tmp_path,

@@ -27,6 +27,7 @@ factors.clearance_m = {min = -5e-6, max = 5e-6}
 """
 
 
+@pytest.mark.slow
 @needs_proc
 def test_workers_end_with_a_killed_job_and_the_rerun_completes(tmp_path):
     spec = write_spec(tmp_path, PROCESS_SPEC)

@@ -345,6 +345,7 @@ def test_healthy_traces_not_refused():
     assert strong >= 20 and refused == 2 * strong
 
 
+@pytest.mark.slow
 def test_train_skips_traces_the_layer_refuses(tmp_path, capsys):
     """`signatelec train` on measured traces skips (and says) those whose ball-pass line
     contradicts their speed label; the model stores the trained level range."""
