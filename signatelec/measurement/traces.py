@@ -28,6 +28,7 @@ Refused:
 
 from __future__ import annotations
 
+import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -118,7 +119,8 @@ def read_trace(
             )
     except TraceError:
         raise
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
+    except (OSError, ValueError, pd.errors.ParserError, csv.Error) as exc:
+        # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell)
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise TraceError(f"{where}: cannot be read as {suffix[1:]} ({text})") from None
     for column, option in (
@@ -126,14 +128,18 @@ def read_trace(
         (resistance_column, "--resistance-column"),
     ):
         if column not in df.columns:
-            have = ", ".join(map(str, df.columns[:8])) + (", ..." if len(df.columns) > 8 else "")
+            # repr: a name holding a line break or control character stays on the one line
+            have = ", ".join(map(repr, df.columns[:8])) + (", ..." if len(df.columns) > 8 else "")
             raise TraceError(
                 f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
             )
     values = []
     for column in (time_column, resistance_column):
         raw = df[column]
-        number = pd.to_numeric(raw, errors="coerce")
+        try:
+            number = pd.to_numeric(raw, errors="coerce")
+        except OverflowError:  # an integer cell beyond the float range, read as a Python int
+            number = pd.to_numeric(raw.astype(str), errors="coerce")  # +-inf, as "1e400" is
         # empty cells and "nan" are missing samples (repaired or refused later); other text is not
         text = number.isna() & raw.notna()
         text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
