@@ -549,6 +549,16 @@ def _raise_terminated(signum, frame) -> None:
     raise Terminated()
 
 
+def one_line(text: str) -> str:
+    """``text`` with line breaks and other control characters escaped (``\\r``, ``\\x1e``): an
+    error stays one line whatever key, column or value of the input it names."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def _error(message: str) -> None:
+    click.echo(f"signatelec: error: {one_line(message)}", err=True)
+
+
 def main(argv: list[str] | None = None) -> None:
     """The ``signatelec`` command; SIGTERM stops a run as Ctrl-C does (exit 143)."""
     previous = None
@@ -564,13 +574,13 @@ def main(argv: list[str] | None = None) -> None:
         click.echo("signatelec: interrupted", err=True)
         sys.exit(EXIT_INTERRUPTED)
     except (InputError, Stopped) as exc:
-        click.echo(f"signatelec: error: {exc.format_message()}", err=True)
+        _error(exc.format_message())
         sys.exit(exc.exit_code)
     except click.ClickException as exc:
-        click.echo(f"signatelec: error: {exc.format_message()}", err=True)
+        _error(exc.format_message())
         sys.exit(EXIT_INPUT)
     except (SceneError, OutputError) as exc:
-        click.echo(f"signatelec: error: {exc}", err=True)
+        _error(str(exc))
         sys.exit(EXIT_INPUT)
     finally:
         if previous is not None:
