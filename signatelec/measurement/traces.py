@@ -8,9 +8,10 @@ wrong.
 Repaired (each repair is listed in :attr:`Trace.repairs`):
 
 - missing resistance samples (NaN, empty cells) and isolated open-circuit samples (``inf``,
-  <= 0: no ball touching both rings, a contact lost by the meter) in gaps of at most
-  ``MAX_GAP_BALL_PASSES`` of a ball pass, and at most ``MAX_BAD_FRACTION`` of the samples in all:
-  linear interpolation between the neighbours; at the ends: cut off;
+  <= 0 or above ``OPEN_CIRCUIT_OHM``: no ball touching both rings, a contact lost by the
+  meter) in gaps of at most ``MAX_GAP_BALL_PASSES`` of a ball pass, and at most
+  ``MAX_BAD_FRACTION`` of the samples in all: linear interpolation between the neighbours; at
+  the ends: cut off;
 - rows with a missing time: dropped (at most ``MAX_BAD_FRACTION``);
 - non-uniform sampling (jitter above ``JITTER_TOLERANCE`` of the median step, or dropped
   samples): linear interpolation onto a uniform grid at the median rate (gaps as above).
@@ -20,7 +21,8 @@ Refused:
 - a time column that does not increase strictly (repeated or backward times);
 - more than ``MAX_BAD_FRACTION`` of the samples missing, or a gap longer than
   ``MAX_GAP_BALL_PASSES`` of a ball pass (the ripple cannot be filled in);
-- open circuit (infinite or non-positive resistance) beyond ``MAX_OPEN_FRACTION``;
+- open circuit (infinite, non-positive or above ``OPEN_CIRCUIT_OHM``) beyond
+  ``MAX_OPEN_FRACTION``;
 - a trace shorter than ``MIN_BALL_PASSES`` ball passes at the given omega, or sampled below
   :func:`minimum_sample_rate_hz` (the harmonics would alias);
 - omega not a finite speed > 0.
@@ -69,6 +71,10 @@ MIN_BALL_PASSES = 5.0
 MAX_BAD_FRACTION = 0.05
 #: Largest share of open-circuit samples (inf or <= 0 ohm) that may be filled in.
 MAX_OPEN_FRACTION = 0.01
+#: Readings above this are open circuit, not a bearing's resistance: metallic contacts give
+#: milliohms (seed section 3), and a meter out of range reports its overflow value (9.9e37 for
+#: SCPI instruments) rather than inf. Beyond it the features' powers of R could also overflow.
+OPEN_CIRCUIT_OHM = 1e6
 #: Longest gap filled in, in ball passes.
 MAX_GAP_BALL_PASSES = 0.25
 #: Relative jitter of the time step below which the sampling counts as uniform.
@@ -205,11 +211,12 @@ def prepare_trace(
     f_bp = expected_ball_pass_hz(omega_rad_s)
     max_gap_s = MAX_GAP_BALL_PASSES / f_bp
 
-    is_open = np.isinf(r) | (r <= 0.0)
+    is_open = np.isinf(r) | (r <= 0.0) | (r > OPEN_CIRCUIT_OHM)
     is_nan = np.isnan(r)
     if is_open.mean() > MAX_OPEN_FRACTION:
         raise TraceError(
-            f"{where}: open circuit (resistance infinite or <= 0) in {is_open.mean():.1%} of the "
+            f"{where}: open circuit (resistance infinite, <= 0 or above {OPEN_CIRCUIT_OHM:g} ohm) "
+            f"in {is_open.mean():.1%} of the "
             f"samples (at most {MAX_OPEN_FRACTION:.0%} can be filled in); no ball touched both "
             "rings, or the meter lost contact"
         )
