@@ -319,7 +319,7 @@ def test_trace_garbage(capsys, default_model, data, suffix, out_suffix):
 # --- the same contract seen from a process ----------------------------------------------------
 
 
-@fuzz_settings(4)
+@fuzz_settings(6)
 @given(scene=scene_tables(), spec=specs(), table=trace_tables())
 def test_as_a_process(scene, spec, table):
     """A scene, a spec and a trace per example through ``python -c main()``: one line or a
