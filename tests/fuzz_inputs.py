@@ -342,7 +342,8 @@ def trace_tables(draw) -> dict:
     n = draw(sample([0, 1, 3, 5, 200, 400, 600, 1000, 600, 1000, 2000]))
     fs = draw(sample([20e3, 20e3, 20e3, 20e3, 50e3, 5e3, 1e9]))
     t = np.arange(n) / fs + draw(st.sampled_from([0.0, 0.0, 1e6, -5.0]))
-    r = 1.5e-3 * (1 + 0.01 * np.sin(2 * np.pi * 400 * t))
+    level = draw(weighted((8, st.just(1.5e-3)), (1, sample([1.5e-103, 1.5e-12, 1.5e5, 1.5e8]))))
+    r = level * (1 + 0.01 * np.sin(2 * np.pi * 400 * t))
     t, r = t.astype(object), r.astype(object)
     for _ in range(draw(sample([0, 0, 0, 0, 1, 1, 2, 3]))):
         if n == 0:

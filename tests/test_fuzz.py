@@ -279,7 +279,13 @@ def check_trace(capsys, write, suffix: str, omega: str, out_suffix: str | None) 
 
 @fuzz_settings(400)
 # defects the fuzz found: a 400-digit integer cell (OverflowError in pandas.to_numeric), one
-# sample of 1e77 ohm (the features' powers of R overflow)
+# sample of 1e77 ohm (the features' powers of R overflow), a level of 1e-103 ohm (they underflow)
+@example(
+    table={"time_s": list(np.arange(400) / 20e3), "resistance_ohm": [1.5e-103] * 400},
+    suffix=".csv",
+    omega="500",
+    out_suffix=None,
+)
 @example(
     table={"time_s": list(np.arange(400) / 20e3), "resistance_ohm": [1e77] + [1.5e-3] * 399},
     suffix=".csv",

@@ -23,6 +23,7 @@ Refused:
   ``MAX_GAP_BALL_PASSES`` of a ball pass (the ripple cannot be filled in);
 - open circuit (infinite, non-positive or above ``OPEN_CIRCUIT_OHM``) beyond
   ``MAX_OPEN_FRACTION``;
+- a median resistance below ``MIN_LEVEL_OHM`` (a column in another unit);
 - a trace shorter than ``MIN_BALL_PASSES`` ball passes at the given omega, or sampled below
   :func:`minimum_sample_rate_hz` (the harmonics would alias);
 - omega not a finite speed > 0.
@@ -75,6 +76,11 @@ MAX_OPEN_FRACTION = 0.01
 #: milliohms (seed section 3), and a meter out of range reports its overflow value (9.9e37 for
 #: SCPI instruments) rather than inf. Beyond it the features' powers of R could also overflow.
 OPEN_CIRCUIT_OHM = 1e6
+#: Smallest median resistance accepted: a bearing's contact resistance is of the order of a
+#: milliohm (seed section 3) and the finest ohmmeters resolve about a nano-ohm; a far smaller
+#: level is a column in another unit, and the fourth powers of its ripple (the kurtosis
+#: features) would underflow.
+MIN_LEVEL_OHM = 1e-9
 #: Longest gap filled in, in ball passes.
 MAX_GAP_BALL_PASSES = 0.25
 #: Relative jitter of the time step below which the sampling counts as uniform.
@@ -280,6 +286,12 @@ def prepare_trace(
             f"{where}: too short: {duration * 1e3:.3g} ms is {passes:.2g} ball passes at "
             f"{omega_rad_s:g} rad/s; at least {min_ball_passes:g} "
             f"({min_ball_passes / f_bp * 1e3:.3g} ms) are needed"
+        )
+    level = float(np.median(r))
+    if level < MIN_LEVEL_OHM:
+        raise TraceError(
+            f"{where}: median resistance {level:.3g} ohm: below {MIN_LEVEL_OHM:g} ohm, smaller "
+            "than any bearing's contact resistance; give the column in ohm"
         )
     fs_min = minimum_sample_rate_hz(omega_rad_s)
     if fs < fs_min:
