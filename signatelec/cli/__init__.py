@@ -36,15 +36,26 @@ from signatelec.cli.common import (  # noqa: E402
     Stopped,
     Terminated,
     cli,
+    load_scene,
 )
 from signatelec.config.scene import SceneError  # noqa: E402
 from signatelec.io import OutputError  # noqa: E402
 
-__all__ = ["EXIT_CODES", "EXIT_INPUT", "cli", "main"]
+__all__ = ["EXIT_CODES", "EXIT_INPUT", "InputError", "cli", "load_scene", "main"]
 
 
 def _raise_terminated(signum, frame) -> None:
     raise Terminated()
+
+
+def one_line(text: str) -> str:
+    """``text`` with line breaks and other control characters escaped (``\\r``, ``\\x1e``): an
+    error stays one line whatever key, column or value of the input it names."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def _error(message: str) -> None:
+    click.echo(f"signatelec: error: {one_line(message)}", err=True)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -62,13 +73,13 @@ def main(argv: list[str] | None = None) -> None:
         click.echo("signatelec: interrupted", err=True)
         sys.exit(EXIT_INTERRUPTED)
     except (InputError, Stopped) as exc:
-        click.echo(f"signatelec: error: {exc.format_message()}", err=True)
+        _error(exc.format_message())
         sys.exit(exc.exit_code)
     except click.ClickException as exc:
-        click.echo(f"signatelec: error: {exc.format_message()}", err=True)
+        _error(exc.format_message())
         sys.exit(EXIT_INPUT)
     except (SceneError, OutputError) as exc:
-        click.echo(f"signatelec: error: {exc}", err=True)
+        _error(str(exc))
         sys.exit(EXIT_INPUT)
     finally:
         if previous is not None:

@@ -10,9 +10,10 @@ Repaired (each repair is listed in :attr:`Trace.repairs`):
 - a simulation's set-up (``signatelec simulate``'s ``signals.parquet`` has a ``phase`` column:
   clearance, load, spin-up, steady): only the steady phase is kept;
 - missing resistance samples (NaN, empty cells) and isolated open-circuit samples (``inf``,
-  <= 0: no ball touching both rings, a contact lost by the meter) in gaps of at most
-  ``MAX_GAP_BALL_PASSES`` of a ball pass, and at most ``MAX_BAD_FRACTION`` of the samples in all:
-  linear interpolation between the neighbours; at the ends: cut off;
+  <= 0 or above ``OPEN_CIRCUIT_OHM``: no ball touching both rings, a contact lost by the
+  meter) in gaps of at most ``MAX_GAP_BALL_PASSES`` of a ball pass, and at most
+  ``MAX_BAD_FRACTION`` of the samples in all: linear interpolation between the neighbours; at
+  the ends: cut off;
 - rows with a missing time: dropped (at most ``MAX_BAD_FRACTION``);
 - non-uniform sampling (jitter above ``JITTER_TOLERANCE`` of the median step, or dropped
   samples): linear interpolation onto a uniform grid at the median rate (gaps as above).
@@ -22,7 +23,9 @@ Refused:
 - a time column that does not increase strictly (repeated or backward times);
 - more than ``MAX_BAD_FRACTION`` of the samples missing, or a gap longer than
   ``MAX_GAP_BALL_PASSES`` of a ball pass (the ripple cannot be filled in);
-- open circuit (infinite or non-positive resistance) beyond ``MAX_OPEN_FRACTION``;
+- open circuit (infinite, non-positive or above ``OPEN_CIRCUIT_OHM``) beyond
+  ``MAX_OPEN_FRACTION``;
+- a median resistance below ``MIN_LEVEL_OHM`` (a column in another unit);
 - a trace shorter than ``MIN_BALL_PASSES`` ball passes at the given omega, or sampled below
   :func:`minimum_sample_rate_hz` (the harmonics would alias);
 - omega not a finite speed > 0.
@@ -30,6 +33,7 @@ Refused:
 
 from __future__ import annotations
 
+import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,6 +76,15 @@ MIN_BALL_PASSES = 5.0
 MAX_BAD_FRACTION = 0.05
 #: Largest share of open-circuit samples (inf or <= 0 ohm) that may be filled in.
 MAX_OPEN_FRACTION = 0.01
+#: Readings above this are open circuit, not a bearing's resistance: metallic contacts give
+#: milliohms (seed section 3), and a meter out of range reports its overflow value (9.9e37 for
+#: SCPI instruments) rather than inf. Beyond it the features' powers of R could also overflow.
+OPEN_CIRCUIT_OHM = 1e6
+#: Smallest median resistance accepted: a bearing's contact resistance is of the order of a
+#: milliohm (seed section 3) and the finest ohmmeters resolve about a nano-ohm; a far smaller
+#: level is a column in another unit, and the fourth powers of its ripple (the kurtosis
+#: features) would underflow.
+MIN_LEVEL_OHM = 1e-9
 #: Longest gap filled in, in ball passes.
 MAX_GAP_BALL_PASSES = 0.25
 #: Relative jitter of the time step below which the sampling counts as uniform.
@@ -137,7 +150,8 @@ def read_trace(
             )
     except TraceError:
         raise
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
+    except (OSError, ValueError, pd.errors.ParserError, csv.Error) as exc:
+        # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell)
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise TraceError(f"{where}: cannot be read as {suffix[1:]} ({text})") from None
     for column, option in (
@@ -145,14 +159,18 @@ def read_trace(
         (resistance_column, "--resistance-column"),
     ):
         if column not in df.columns:
-            have = ", ".join(map(str, df.columns[:8])) + (", ..." if len(df.columns) > 8 else "")
+            # repr: a name holding a line break or control character stays on the one line
+            have = ", ".join(map(repr, df.columns[:8])) + (", ..." if len(df.columns) > 8 else "")
             raise TraceError(
                 f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
             )
     values = []
     for column in (time_column, resistance_column):
         raw = df[column]
-        number = pd.to_numeric(raw, errors="coerce")
+        try:
+            number = pd.to_numeric(raw, errors="coerce")
+        except OverflowError:  # an integer cell beyond the float range, read as a Python int
+            number = pd.to_numeric(raw.astype(str), errors="coerce")  # +-inf, as "1e400" is
         # empty cells and "nan" are missing samples (repaired or refused later); other text is not
         text = number.isna() & raw.notna()
         text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
@@ -238,11 +256,12 @@ def prepare_trace(
     f_bp = expected_ball_pass_hz(omega_rad_s)
     max_gap_s = MAX_GAP_BALL_PASSES / f_bp
 
-    is_open = np.isinf(r) | (r <= 0.0)
+    is_open = np.isinf(r) | (r <= 0.0) | (r > OPEN_CIRCUIT_OHM)
     is_nan = np.isnan(r)
     if is_open.mean() > MAX_OPEN_FRACTION:
         raise TraceError(
-            f"{where}: open circuit (resistance infinite or <= 0) in {is_open.mean():.1%} of the "
+            f"{where}: open circuit (resistance infinite, <= 0 or above {OPEN_CIRCUIT_OHM:g} ohm) "
+            f"in {is_open.mean():.1%} of the "
             f"samples (at most {MAX_OPEN_FRACTION:.0%} can be filled in); no ball touched both "
             "rings, or the meter lost contact"
         )
@@ -306,6 +325,12 @@ def prepare_trace(
             f"{where}: too short: {duration * 1e3:.3g} ms is {passes:.2g} ball passes at "
             f"{omega_rad_s:g} rad/s; at least {min_ball_passes:g} "
             f"({min_ball_passes / f_bp * 1e3:.3g} ms) are needed"
+        )
+    level = float(np.median(r))
+    if level < MIN_LEVEL_OHM:
+        raise TraceError(
+            f"{where}: median resistance {level:.3g} ohm: below {MIN_LEVEL_OHM:g} ohm, smaller "
+            "than any bearing's contact resistance; give the column in ohm"
         )
     fs_min = minimum_sample_rate_hz(omega_rad_s)
     if fs < fs_min:
