@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import signal
 import subprocess
 import sys
 import textwrap
@@ -28,6 +29,12 @@ def cli(*args: str, cwd: Path | None = None, timeout: float = 120) -> subprocess
     )
 
 
+def _as_from_a_terminal() -> None:
+    """Ctrl-C reaches the command as it does from a terminal, even when the test runner was
+    started with SIGINT ignored (nohup, a background job of a non-interactive shell)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start(*args: str) -> subprocess.Popen:
     """The command in a session of its own (its workers and forkserver join that session)."""
     return subprocess.Popen(
@@ -36,6 +43,7 @@ def start(*args: str) -> subprocess.Popen:
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=_as_from_a_terminal,
     )
 
 
