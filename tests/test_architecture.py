@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "signatelec"
 #: Longest module allowed, lines: a module this long holds one job a reader can follow.
 MAX_MODULE_LINES = 600
-#: A reference to a ticket instead of the requirement it states ("issue 4", "issue #12").
+#: A reference to a ticket (the word "issue" and its number) instead of the requirement it states.
 TICKET = re.compile(r"\b[Ii]ssues? ?#?[0-9]+")
 TEXT_SUFFIXES = {".py", ".md", ".toml", ".txt"}
 
