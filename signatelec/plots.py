@@ -7,12 +7,12 @@ Every figure of the package is built with :func:`new_figure` and written with
 from __future__ import annotations
 
 import io
-import os
-import uuid
 from pathlib import Path
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+
+from signatelec.io import write_bytes_atomic
 
 #: Resolution of the written PNGs (small enough to commit).
 DPI = 110
@@ -39,13 +39,7 @@ def save_figure(fig: Figure, path: str | Path, dpi: int = DPI) -> Path:
     image = Image.open(buffer).convert("RGB").quantize(256)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    # A unique name next to the target (same file system, so os.replace is atomic); opened with
-    # the usual mode so the umask applies, as for any written file.
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    try:
-        with open(tmp, "xb") as handle:
-            image.save(handle, format="png", optimize=True)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    png = io.BytesIO()
+    image.save(png, format="png", optimize=True)
+    write_bytes_atomic(path, png.getvalue())
     return path

@@ -24,6 +24,7 @@ from signatelec.cli.common import (
 )
 from signatelec.config.scene import SceneError
 from signatelec.engines.fidelity import FIDELITY_NAMES
+from signatelec.io import write_bytes_atomic
 
 
 @cli.command()
@@ -239,9 +240,7 @@ def bench(out, duration_s, fresh_cache, cases):
     except SceneError as exc:
         raise InputError(str(exc)) from None
     click.echo(format_table(report))
-    tmp = Path(out).with_name(Path(out).name + ".tmp")
-    tmp.write_text(json.dumps(report, indent=2))
-    tmp.replace(out)
+    write_bytes_atomic(out, json.dumps(report, indent=2).encode("utf-8"))
     click.echo(f"wrote {out}")
 
 

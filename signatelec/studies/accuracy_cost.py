@@ -37,9 +37,9 @@ resumable: finished cases are kept in
 
 from __future__ import annotations
 
+import io
 import json
 import math
-import os
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -51,6 +51,7 @@ import pandas as pd
 
 from signatelec.config.scene import Scene
 from signatelec.engines.fidelity import PRESETS, Preset, apply_fidelity, cage_mass_scale
+from signatelec.io import write_bytes_atomic
 from signatelec.studies.accuracy_metrics import PAPER_SETTING, Trace, compare
 from signatelec.studies.accuracy_report import markdown, plot
 
@@ -324,9 +325,9 @@ class _Cache:
 
     def save_reference(self, scene_name: str, trace: Trace) -> None:
         path = self._reference_path(scene_name)
-        tmp = path.with_name(f".{path.stem}.tmp.npz")
-        np.savez(tmp, **asdict(trace))
-        os.replace(tmp, path)
+        buffer = io.BytesIO()
+        np.savez(buffer, **asdict(trace))
+        write_bytes_atomic(path, buffer.getvalue())
 
     def add(self, row: dict) -> None:
         self.rows[(row["scene"], row["setting"])] = row
@@ -421,12 +422,8 @@ def run_study(
         "markdown": out / "accuracy_cost.md",
         "plot": out / "accuracy_cost.png",
     }
-    tmp = paths["table"].with_name(".accuracy_cost.parquet.tmp")
-    table.to_parquet(tmp, index=False)
-    os.replace(tmp, paths["table"])
-    tmp = paths["markdown"].with_name(".accuracy_cost.md.tmp")
-    tmp.write_text(markdown(table, run_time))
-    os.replace(tmp, paths["markdown"])
+    write_bytes_atomic(paths["table"], table.to_parquet(index=False))
+    write_bytes_atomic(paths["markdown"], markdown(table, run_time).encode("utf-8"))
     plot(table, paths["plot"])
     if log is not None:
         log(f"study run time {run_time:.0f} s (this invocation {elapsed:.0f} s)")

@@ -386,9 +386,7 @@ def run_study(
     if ship_to is not None:
         ship_to = Path(ship_to)
         ship_to.parent.mkdir(parents=True, exist_ok=True)
-        tmp = ship_to.with_suffix(".tmp")
-        shipped.to_parquet(tmp, index=False, compression="zstd")
-        tmp.replace(ship_to)
+        write_bytes_atomic(ship_to, shipped.to_parquet(index=False, compression="zstd"))
         log(f"wrote {ship_to} ({ship_to.stat().st_size / 1e3:.0f} kB, {len(shipped)} rows)")
     if example_to is not None:
         write_example_trace(Path(example_to))

@@ -41,6 +41,7 @@ from signatelec._version import __version__
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.catalogue import catalogue_bearing, catalogue_entry, list_bearings
 from signatelec.config.scene import Scene, SceneError, preload_limit_m
+from signatelec.io import write_bytes_atomic
 from signatelec.physics.electrical import CurrentDensityWarning
 from signatelec.physics.laws import scene_law
 from signatelec.studies.operating_map_report import write_outputs
@@ -253,9 +254,7 @@ def run_map(
             row = classify(json.loads(path.read_text()))
         else:
             row = run_cell(cell, ball_passes)
-            tmp = path.with_suffix(".tmp")
-            tmp.write_text(json.dumps(row))
-            tmp.replace(path)
+            write_bytes_atomic(path, json.dumps(row).encode("utf-8"))
         rows.append(row)
         if log is not None:
             log(

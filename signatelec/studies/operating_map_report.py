@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from signatelec.io import write_bytes_atomic
 from signatelec.plots import new_figure, save_figure
 
 CLEARANCES = ("preload", "zero", "normal")
@@ -135,11 +136,8 @@ def write_outputs(
         "markdown": out / "operating_map.md",
         "png": out / "operating_map.png",
     }
-    tmp = paths["parquet"].with_suffix(".parquet.tmp")
-    table.to_parquet(tmp, index=False)
-    tmp.replace(paths["parquet"])
-    tmp = paths["markdown"].with_suffix(".md.tmp")
-    tmp.write_text(markdown(table, criteria, run_time_s))
-    tmp.replace(paths["markdown"])
+    write_bytes_atomic(paths["parquet"], table.to_parquet(index=False))
+    text = markdown(table, criteria, run_time_s)
+    write_bytes_atomic(paths["markdown"], text.encode("utf-8"))
     plot(table, paths["png"])
     return paths
