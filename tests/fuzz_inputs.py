@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 
 from signatelec.config.bearing import MATERIALS, Bearing, Material
 from signatelec.config.constraints import DATASET, DESIGN_KINDS, FACTORS, MEASUREMENT
-from signatelec.config.scene import OPTION_TABLE, SECTIONS, Procedure
+from signatelec.config.options import OPTION_TABLE
+from signatelec.config.scene import SECTIONS, Procedure
 from signatelec.engines.fidelity import FIDELITY_NAMES
 from signatelec.physics.stability import SPIN_UP_MIN_S
 

@@ -85,7 +85,7 @@ def test_bench_writes_json_with_compile_apart(tmp_path):
 
 def test_bench_cases_cover_every_kernel_option():
     """Each value of an option the kernel is compiled per has a case of its own."""
-    from signatelec.config.scene import OPTIONS
+    from signatelec.config.options import OPTIONS
     from signatelec.studies.bench import CASES
 
     for option in OPTIONS:

@@ -1,4 +1,4 @@
-"""Scene options are declared once (config.scene.OPTIONS) and every user derives from the table."""
+"""Scene options are declared once (config.options.OPTIONS); every user derives from the table."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ from dataclasses import fields
 
 import pytest
 
-from signatelec.config.scene import OPTION_TABLE, OPTIONS, SECTIONS, Effects, Scene, SceneError
+from signatelec.config.options import OPTION_TABLE, OPTIONS
+from signatelec.config.scene import SECTIONS, Effects, Scene, SceneError
 from signatelec.engines.dem.spec import KERNEL_OPTIONS, KernelSpec
 
 

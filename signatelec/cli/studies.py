@@ -60,7 +60,7 @@ def accuracy_cost(out, quick, fresh, quiet):
 def operating_map(out, quick, cages, fresh, quiet):
     """Every catalogue bearing at its rated speeds with the defaults: DIR/operating_map.{parquet,
     md,png}."""
-    from signatelec.config.scene import OPTION_TABLE
+    from signatelec.config.options import OPTION_TABLE
     from signatelec.studies.operating_map import run_study
 
     option = OPTION_TABLE[("effects", "cage")]

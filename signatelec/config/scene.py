@@ -19,8 +19,9 @@ TOML layout (every section and key optional; defaults are the seed's scene, sect
 the scene chooses them when it is built (:func:`resolve_auto`), and :attr:`Scene.chosen` names
 what it chose; a number given instead is kept as given.
 
-Every choice (a model name or a switch) is declared once in :data:`OPTIONS` with its allowed
-values, default and cost; ``[effects]`` holds the physics, each option naming a model.
+Every choice (a model name or a switch) is declared once in
+:data:`signatelec.config.options.OPTIONS` with its allowed values, default and cost;
+``[effects]`` holds the physics, each option naming a model.
 """
 
 from __future__ import annotations
@@ -47,8 +48,9 @@ from signatelec.config.constraints import (
     Checker,
     Constraint,
 )
+from signatelec.config.options import OPTION_TABLE
 from signatelec.io import read_limited
-from signatelec.physics.contact import CONTACT_LAWS, hertz_normal_force, law_coefficients
+from signatelec.physics.contact import hertz_normal_force, law_coefficients
 from signatelec.physics.stability import auto_dt_s, auto_spin_up_time_s
 
 
@@ -56,7 +58,6 @@ class SceneError(ValueError):
     """A scene value that is not allowed; the message is one line naming key, value, rule."""
 
 
-FIDELITIES = ("dem", "quasistatic")
 #: The value of a setting the scene chooses itself (see :func:`resolve_auto`).
 AUTO = "auto"
 #: Steady running an automatic duration keeps after the set-up: the seed's (30 ms - 7 ms set-up),
@@ -65,133 +66,6 @@ STEADY_MIN_S = 0.023
 STEADY_BALL_PASSES = 5
 
 
-@dataclass(frozen=True)
-class Option:
-    """One choice of a scene, declared once in :data:`OPTIONS`.
-
-    A physics option names a model; its ``off`` value is the null model that ``false`` selects
-    (``true`` selects ``default``). A switch takes true or false. ``kernel``: the DEM kernel is
-    compiled per value (:class:`signatelec.engines.dem.spec.KernelSpec` reads these options).
-    """
-
-    section: str
-    name: str
-    values: tuple
-    default: str | bool
-    description: str
-    kernel: bool = False
-    off: str | None = None
-
-    @property
-    def switch(self) -> bool:
-        return isinstance(self.default, bool)
-
-    def normalise(self, value: Any) -> Any:
-        """The model a boolean names (``true``: the default, ``false``: ``off``), else value."""
-        if self.off is not None and isinstance(value, bool):
-            return self.default if value else self.off
-        return value
-
-    def accepts(self, value: Any) -> bool:
-        if self.switch:
-            return isinstance(value, bool)
-        value = self.normalise(value)
-        return isinstance(value, str) and value in self.values
-
-    @property
-    def rule(self) -> str:
-        if self.switch:
-            return "must be true or false"
-        text = f"must be one of {', '.join(self.values)}"
-        if self.off is not None:
-            text += f" (true: {self.default}, false: {self.off})"
-        return text
-
-
-#: Every choice of a scene: what the TOML accepts, the defaults of the dataclasses below, the
-#: kernel's specialisation and the bench's cases all come from this table. Costs: shares of the
-#: seed scene's CPU time per step, ~0.45 us (``signatelec bench``).
-OPTIONS: tuple[Option, ...] = (
-    Option(
-        "effects", "cage", ("balls", "rigid", "none"), "balls",
-        "balls: 13 polyamide cage balls between two frictionless boundaries (table 2), ~40 % of "
-        "the step, and they set the stability limit; rigid: one ball-guided ring body (x, y, "
-        "angle) with a spherical pocket per ball (bearing.rigid_cage_material, "
-        "pocket_clearance_m; conformal Hertz, frictionless), ~30 % cheaper a step than the "
-        "cage balls and dt up to the steel balls' limit; none: balls touch (steel, frictionless)",
-        kernel=True, off="none",
-    ),
-    Option(
-        "effects", "friction", ("coulomb", "none"), "coulomb",
-        "coulomb: tangential forces with the Coulomb limit (eq. 4) on ball/raceway contacts, "
-        "~6 % of the step; none: frictionless (also when bearing.friction_coefficient = 0)",
-        kernel=True, off="none",
-    ),
-    Option(
-        "effects", "damping", ("critical", "none"), "critical",
-        "critical: critical viscous damping (eq. 5) on every contact, ~15 % of the step; none: "
-        "elastic contacts",
-        kernel=True, off="none",
-    ),
-    Option(
-        "effects", "contact_law", CONTACT_LAWS, "hertz",
-        "hertz (eqs 6-9); harris (eqs 10-11, Harris' coefficients, same kernel); linear (eq. 3, "
-        "Hertz secant stiffness at Stribeck's load, ~1/3 cheaper: no roots)",
-        kernel=True,
-    ),
-    Option(
-        "effects", "tangential", ("seed", "spring"), "seed",
-        "seed: delta_t = v_t dt (eq. 3, first order in dt); spring: accumulated delta_t "
-        "(second order, same cost)",
-        kernel=True,
-    ),
-    Option(
-        "effects", "gravity", ("standard", "none"), "standard",
-        "standard: weight of every body along -y (9.80665 m/s^2), no cost; none: weightless",
-        kernel=True, off="none",
-    ),
-    Option(
-        "effects", "centrifugal", ("inertial", "compensated"), "inertial",
-        "inertial: the inertial-frame DEM carries it, no cost; compensated: the centripetal "
-        "force m v_t^2 / r on each ball cancels it, to compare with centrifugal-free theory",
-        kernel=True, off="compensated",
-    ),
-    Option(
-        "procedure", "clearance_phase", (True, False), True,
-        "move the outer race to R_out + clearance over clearance_time_s (eq. 14); false: at once",
-    ),
-    Option(
-        "procedure", "spin_up", (True, False), True,
-        "sinusoidal spin-up of the inner ring over spin_up_time_s; false: omega as a step",
-    ),
-    Option(
-        "procedure", "load_ramp", ("smooth", "step"), "smooth",
-        "smooth: F_r rises along (1 - cos)/2 over load_time_s; step: F_r applied at once",
-    ),
-    Option(
-        "outputs", "electrical", (True, False), True,
-        "contact ellipses, eq. 16 and the Kirchhoff network at every recorded instant "
-        "(~3 us per instant, ~1 % of a seed run at 20 kHz)",
-    ),
-    Option(
-        "outputs", "energy", (True, False), False,
-        "energy balance (work in, dissipation, kinetic, elastic) per recorded instant, "
-        "~20 % of the step",
-        kernel=True,
-    ),
-    Option(
-        "numerics", "integrator", ("verlet", "euler"), "verlet",
-        "verlet: velocity Verlet, 2nd order; euler: symplectic Euler, 1st order, same cost per "
-        "step and a stability limit about twice Verlet's with contact damping",
-        kernel=True,
-    ),
-    Option(
-        "numerics", "fidelity", FIDELITIES, "dem",
-        "dem: the DEM kernel; quasistatic: the steady phase by the quasi-static tier (no "
-        "dynamics, ~1 ms instead of ~0.2 s for the seed's scene; presets: engines.fidelity)",
-    ),
-)  # fmt: skip
-OPTION_TABLE: dict[tuple[str, str], Option] = {(o.section, o.name): o for o in OPTIONS}
 #: Keys the earlier layout had under [effects], and the section that holds them now.
 _MOVED = {
     "clearance_phase": "procedure",
@@ -245,7 +119,7 @@ class Procedure:
 
 @dataclass(frozen=True)
 class Effects:
-    """The physics a scene simulates: each option names a model (see OPTIONS); a model that is
+    """The physics a scene simulates: each option names a model (config.options); a model that is
     not chosen is not compiled into the kernel. ``true``/``false`` name the default model and
     the null model of an on/off option (``cage = false`` is ``cage = "none"``)."""
 
@@ -263,7 +137,7 @@ class Effects:
 
 @dataclass(frozen=True)
 class Outputs:
-    """What a run computes besides the motion (see OPTIONS)."""
+    """What a run computes besides the motion (see config.options.OPTIONS)."""
 
     electrical: bool = _default("outputs", "electrical")
     energy: bool = _default("outputs", "energy")

@@ -38,7 +38,8 @@ import re
 from dataclasses import dataclass, replace
 
 from signatelec.config.bearing import MATERIALS, Material
-from signatelec.config.scene import FIDELITIES, OPTIONS, Scene, SceneError
+from signatelec.config.options import FIDELITIES, OPTIONS
+from signatelec.config.scene import Scene, SceneError
 
 _SCALED = re.compile(r"^(?P<base>.*) \(mass x(?P<factor>[0-9.eE+-]+)\)$")
 

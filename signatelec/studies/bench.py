@@ -1,6 +1,6 @@
 """``signatelec bench``: what each option costs, in microseconds per time step.
 
-The cases derive from the scene options (:data:`signatelec.config.scene.OPTIONS`): the seed
+The cases derive from the scene options (:data:`signatelec.config.options.OPTIONS`): the seed
 scene, then each option that changes the kernel or the outputs set to each of its other values
 (``cage=none``, ``contact_law=linear``, ``energy=true``, ``integrator=euler``, ...), then
 ``minimal``: every physics option at its null model, no electrical output. Every kernel is
@@ -15,11 +15,12 @@ import platform
 import tempfile
 
 from signatelec._version import __version__
-from signatelec.config.scene import OPTIONS, Scene, SceneError
+from signatelec.config.options import OPTIONS
+from signatelec.config.scene import Scene, SceneError
 
 
 def _cases() -> dict[str, dict]:
-    """The seed scene; every option that changes the kernel or the outputs (config.scene.OPTIONS)
+    """The seed scene; every option that changes the kernel or the outputs (config.options.OPTIONS)
     at each of its other values, one at a time; then every physics option at its null model."""
     cases: dict[str, dict] = {"seed": {}}
     for option in OPTIONS:

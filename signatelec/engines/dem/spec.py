@@ -1,7 +1,7 @@
 """The compile-time choices of one DEM kernel.
 
 A :class:`KernelSpec` holds the value of every scene option the kernel is compiled per (the
-entries of :data:`signatelec.config.scene.OPTIONS` with ``kernel=True``), in table order. The
+entries of :data:`signatelec.config.options.OPTIONS` with ``kernel=True``), in table order. The
 kernel source reads them as booleans, ``<OPTION>_<VALUE>`` for a model option (``CAGE_BALLS``,
 ``CONTACT_LAW_LINEAR``) and ``<OPTION>`` for a switch (``ENERGY``): :meth:`KernelSpec.flags`.
 Adding a model is one value in ``OPTIONS`` and one branch on its flag in the kernel.
@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from signatelec.config.scene import OPTIONS, Option, Scene
+from signatelec.config.options import OPTIONS, Option
+from signatelec.config.scene import Scene
 
 KERNEL_OPTIONS: tuple[Option, ...] = tuple(o for o in OPTIONS if o.kernel)
 
