@@ -389,6 +389,52 @@ SCENE = (
     ),
     Constraint(
         "operating",
+        "measurement_frequency_hz",
+        NUMBER,
+        low=0.0,
+        low_open=True,
+        high=1e9,
+        allowed="must be in (0, 1e9] Hz",
+    ),
+    Constraint(
+        "lubricant",
+        "temperature_c",
+        NUMBER,
+        low=-30.0,
+        high=150.0,
+        allowed="must be in [-30, 150] C (ASTM D341's range for mineral and PAO oils)",
+    ),
+    *(
+        Constraint("lubricant", key, NUMBER, low=0.0, allowed="must be >= 0 (0: the oil's value)")
+        for key in (
+            "viscosity_40c_mm2_s",
+            "viscosity_100c_mm2_s",
+            "density_kg_m3",
+            "pressure_viscosity_1_pa",
+            "relative_permittivity",
+            "resistivity_ohm_m",
+        )
+    ),
+    Constraint(
+        "lubricant",
+        "viscosity_100c_mm2_s",
+        NUMBER,
+        rule=Limit("viscosity_falls"),
+        allowed="must be below the 40 C viscosity (ASTM D341: viscosity falls with temperature)",
+    ),
+    Constraint(
+        "lubricant",
+        "relative_permittivity",
+        NUMBER,
+        rule=Limit("permittivity_physical"),
+        allowed="must be 0 (the oil's) or >= 1",
+    ),
+    *(
+        Constraint("lubricant", key, NUMBER, low=0.0, low_open=True, allowed="must be > 0 m")
+        for key in ("ball_roughness_m", "race_roughness_m", "meniscus_gap_m")
+    ),
+    Constraint(
+        "operating",
         "clearance_m",
         NUMBER,
         low=Limit("clearance_limit_m", -1.0),

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from signatelec.config.lubricant import OILS
 from signatelec.physics.contact import CONTACT_LAWS
 
 FIDELITIES = ("dem", "quasistatic")
@@ -32,6 +33,8 @@ class Option:
     description: str
     kernel: bool = False
     off: str | None = None
+    #: The model ``true`` names when it is not the default (a model that is off by default).
+    on: str | None = None
 
     @property
     def switch(self) -> bool:
@@ -40,7 +43,7 @@ class Option:
     def normalise(self, value: Any) -> Any:
         """The model a boolean names (``true``: the default, ``false``: ``off``), else value."""
         if self.off is not None and isinstance(value, bool):
-            return self.default if value else self.off
+            return (self.on or self.default) if value else self.off
         return value
 
     def accepts(self, value: Any) -> bool:
@@ -55,7 +58,7 @@ class Option:
             return "must be true or false"
         text = f"must be one of {', '.join(self.values)}"
         if self.off is not None:
-            text += f" (true: {self.default}, false: {self.off})"
+            text += f" (true: {self.on or self.default}, false: {self.off})"
         return text
 
 
@@ -106,6 +109,19 @@ OPTIONS: tuple[Option, ...] = (
         "inertial: the inertial-frame DEM carries it, no cost; compensated: the centripetal "
         "force m v_t^2 / r on each ball cancels it, to compare with centrifugal-free theory",
         kernel=True, off="compensated",
+    ),
+    Option(
+        "effects", "lubrication", ("ehl", "none"), "none",
+        "ehl: oil films by Hamrock-Dowson, film capacitance and asperity conduction, the "
+        "bearing's impedance at operating.measurement_frequency_hz (physics.ehl, "
+        "physics.lubricated_contact), computed from the recorded kinematics after the run, "
+        "~1 us per ball and instant; none: the seed's dry contacts, nothing computed",
+        off="none", on="ehl",
+    ),
+    Option(
+        "lubricant", "oil", tuple(OILS), "ISO VG 68",
+        "the oil of effects.lubrication (config.lubricant.OILS: ISO VG 32, 68, 100 mineral, PAO "
+        "68), its properties overridable in [lubricant]; no cost when lubrication is none",
     ),
     Option(
         "procedure", "clearance_phase", (True, False), True,

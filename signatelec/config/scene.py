@@ -8,10 +8,12 @@ TOML layout (every section and key optional; defaults are the seed's scene, sect
     [bearing]      designation (a catalogue bearing, signatelec.config.catalogue; default: the
                    seed's), then any field of signatelec.config.bearing.Bearing to override it
     [operating]    radial_load_n, clearance_m, omega_rad_s, initial_ball_angle_rad,
-                   injected_current_a
+                   injected_current_a, measurement_frequency_hz
     [procedure]    clearance_time_s, load_time_s, spin_up_time_s, load_ramp, clearance_phase,
                    spin_up
-    [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal
+    [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal,
+                   lubrication
+    [lubricant]    oil, temperature_c, any property of the oil, roughness (config.lubricant)
     [outputs]      electrical, energy
     [numerics]     dt_s, duration_s, sample_rate_hz, integrator, fidelity, linear_stiffness_n_m
 
@@ -48,6 +50,7 @@ from signatelec.config.constraints import (
     Checker,
     Constraint,
 )
+from signatelec.config.lubricant import Lubricant
 from signatelec.config.options import OPTION_TABLE
 from signatelec.io import read_limited
 from signatelec.physics.contact import hertz_normal_force, law_coefficients
@@ -101,6 +104,8 @@ class Operating:
     initial_ball_angle_rad: float = 0.0
     #: Current injected into the outer ring for the electrical model, A.
     injected_current_a: float = 0.1
+    #: Frequency at which the lubricated bearing's impedance is reported, Hz.
+    measurement_frequency_hz: float = 10e3
 
 
 @dataclass(frozen=True)
@@ -130,6 +135,7 @@ class Effects:
     tangential: str = _default("effects", "tangential")
     gravity: str = _default("effects", "gravity")
     centrifugal: str = _default("effects", "centrifugal")
+    lubrication: str = _default("effects", "lubrication")
 
     def __post_init__(self) -> None:
         _normalise(self, "effects")
@@ -163,6 +169,7 @@ SECTIONS: dict[str, type] = {
     "operating": Operating,
     "procedure": Procedure,
     "effects": Effects,
+    "lubricant": Lubricant,
     "outputs": Outputs,
     "numerics": Numerics,
 }
@@ -174,6 +181,7 @@ class Scene:
     operating: Operating = field(default_factory=Operating)
     procedure: Procedure = field(default_factory=Procedure)
     effects: Effects = field(default_factory=Effects)
+    lubricant: Lubricant = field(default_factory=Lubricant)
     outputs: Outputs = field(default_factory=Outputs)
     numerics: Numerics = field(default_factory=Numerics)
     #: The settings the scene chose itself, ``(("numerics.dt_s", 1e-07), ...)``; a copy made
@@ -447,6 +455,13 @@ def scene_limits(scene: Scene) -> dict[str, Any]:
         "setup_time_s": lambda: scene.setup_time_s,
         "sample_rate_limit_hz": lambda: 1.0 / nu.dt_s,
         "sample_rate_floor_hz": lambda: 1.0 / nu.duration_s,
+        "viscosity_falls": lambda: (
+            (oil := scene.lubricant.oil_data()).viscosity_100c_mm2_s < oil.viscosity_40c_mm2_s
+        ),
+        "permittivity_physical": lambda: (
+            scene.lubricant.relative_permittivity in (0.0, 0)
+            or scene.lubricant.relative_permittivity >= 1.0
+        ),
     }
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 from signatelec.config.scene import Scene
 from signatelec.engines.results import SimulationResult
 
@@ -16,6 +18,8 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
     step). Raises :class:`~signatelec.config.scene.SceneError` for a scene the engine refuses or
     whose run exceeds the limits of :mod:`signatelec.engines.budget` (checked first) and
     :class:`~signatelec.engines.results.DivergenceError` when a run leaves the physical range.
+    ``effects.lubrication = "ehl"`` adds the lubricated bearing's columns
+    (:func:`signatelec.engines.lubrication.add_lubrication`) to either engine's tables.
     """
     from signatelec.engines.budget import check_run
 
@@ -24,7 +28,16 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
     if scene.numerics.fidelity == "quasistatic":
         from signatelec.engines.quasistatic.tier import simulate_quasistatic
 
-        return simulate_quasistatic(scene, progress=progress)
-    from signatelec.engines.dem.run import simulate_dem
+        result = simulate_quasistatic(scene, progress=progress)
+    else:
+        from signatelec.engines.dem.run import simulate_dem
 
-    return simulate_dem(scene, progress=progress)
+        result = simulate_dem(scene, progress=progress)
+    if scene.effects.lubrication != "none":
+        # post-processing of the recorded kinematics and loads: nothing of it runs when off
+        from signatelec.engines.lubrication import add_lubrication
+
+        t0 = time.perf_counter()
+        add_lubrication(result)
+        result.timings["lubrication_s"] = time.perf_counter() - t0
+    return result

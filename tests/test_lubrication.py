@@ -1,0 +1,297 @@
+"""Lubricated contacts: EHL film, film capacitance, asperity conduction, the bearing's impedance."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import integrate
+
+from signatelec.config.lubricant import OILS, Lubricant
+from signatelec.config.scene import Scene, SceneError
+from signatelec.engines.dem.spec import KernelSpec
+from signatelec.engines.lubrication import impedance_sweep
+from signatelec.engines.simulate import simulate
+from signatelec.physics.conductance import contact_ellipse
+from signatelec.physics.ehl import (
+    entrainment_speed_m_s,
+    film_thickness_m,
+    walther_kinematic_viscosity_mm2_s,
+)
+from signatelec.physics.lubricated_contact import (
+    EPSILON_0_F_M,
+    hertz_zone_capacitance_f,
+    metallic_fraction,
+    outside_capacitance_f,
+)
+
+LUBRICATED = {"effects": {"lubrication": True}, "numerics": {"fidelity": "quasistatic"}}
+FILM_COLUMNS = {
+    "signals": ["capacitance_f", "impedance_ohm", "impedance_phase_rad"],
+    "balls": [
+        "inner_film_m",
+        "outer_film_m",
+        "inner_film_parameter",
+        "outer_film_parameter",
+        "inner_regime",
+        "outer_regime",
+    ],
+}
+
+
+def qs_scene(**operating) -> Scene:
+    data = {k: dict(v) for k, v in LUBRICATED.items()}
+    data["operating"] = operating
+    return Scene.from_dict(data)
+
+
+# --- film thickness -----------------------------------------------------------------------------
+
+
+@pytest.mark.validation
+def test_film_of_hamrocks_deep_groove_example():
+    # Hamrock, Fundamentals of Fluid Film Lubrication (1994; NASA RP-1255 1991), ch. 22 example:
+    # single-row deep-groove ball bearing, d_i = 52.291 mm, d_o = 77.706 mm, d = 12.7 mm, n = 9,
+    # groove radii 6.604 mm, E = 200 GPa, nu = 0.3, eta_0 = 0.01 Pa s, xi = 2.2e-8 1/Pa,
+    # omega_i = 400 rad/s, w_z = 8900 N, heaviest ball 5 w_z / n (Stribeck). The reference
+    # follows the book's procedure: its R_x, R_y, u = (d_e^2 - d^2) omega_i / (4 d_e) and its
+    # ellipticity fit k = 1.0339 (R_y / R_x)^0.636 (the model uses the seed's alpha^(2/pi)).
+    d_i, d_o, d, r, n_balls = 52.291e-3, 77.706e-3, 12.7e-3, 6.604e-3, 9
+    e_prime = 200e9 / (1 - 0.3**2)
+    eta, xi, omega_i, load = 0.01, 2.2e-8, 400.0, 5 * 8900.0 / n_balls
+    d_e = 0.5 * (d_i + d_o)
+    u_book = (d_e**2 - d**2) * omega_i / (4 * d_e)
+    # the model's entrainment speed from the ball's orbit and spin (pure rolling)
+    orbit = omega_i * (d_e - d) / (2 * d_e)
+    spin = -orbit * d_e / d
+    u_in, u_out = entrainment_speed_m_s(orbit, spin, omega_i, d / 2, (d_e - d) / 2, (d_e + d) / 2)
+    assert u_in == pytest.approx(u_book, rel=1e-12) and u_out == pytest.approx(u_book, rel=1e-12)
+    for sign in (-1, 1):  # inner, outer race
+        rx = d * (d_e + sign * d) / (2 * d_e)
+        ry = r * d / (2 * r - d)
+        k_book = 1.0339 * (ry / rx) ** 0.636
+        big_u, big_g, big_w = eta * u_book / (e_prime * rx), xi * e_prime, load / (e_prime * rx**2)
+        h_c = (
+            rx
+            * 2.69
+            * big_u**0.67
+            * big_g**0.53
+            * big_w**-0.067
+            * (1 - 0.61 * math.exp(-0.73 * k_book))
+        )
+        h_min = (
+            rx * 3.63 * big_u**0.68 * big_g**0.49 * big_w**-0.073 * (1 - math.exp(-0.68 * k_book))
+        )
+        model_c, model_min = film_thickness_m(load, u_in, eta, xi, rx, ry / rx, e_prime)
+        # measured: within 0.05 %; the brief's tolerance 3 %
+        assert model_c == pytest.approx(h_c, rel=0.03)
+        assert model_min == pytest.approx(h_min, rel=0.03)
+        assert 0.1e-6 < h_min < 0.5e-6  # the sub-micron films of the example
+
+
+@pytest.mark.validation
+def test_film_exponents_measured_from_simulated_runs():
+    # Hamrock-Dowson: h_c ~ u^0.67 eta_0^0.67 Q^-0.067, measured by finite differences on the
+    # quasi-static tier's heaviest ball (its speed, the oil's viscosity, the radial load)
+    def heaviest(scene):
+        balls = simulate(scene).balls
+        row = balls.loc[balls["inner_force_n"].idxmax()]
+        return row["inner_film_m"], row["inner_force_n"]
+
+    base = qs_scene(omega_rad_s=300.0)
+    h0, q0 = heaviest(base)
+    h_u, _ = heaviest(base.with_overrides(omega_rad_s=330.0))
+    assert math.log(h_u / h0) / math.log(1.1) == pytest.approx(0.67, abs=0.01)
+    thicker = Scene.from_dict(
+        {
+            **LUBRICATED,
+            "operating": {"omega_rad_s": 300.0},
+            "lubricant": {"viscosity_40c_mm2_s": 74.8},
+        }
+    )
+    h_eta, _ = heaviest(thicker)
+    eta_ratio = (
+        thicker.lubricant.resolved().viscosity_pa_s / base.lubricant.resolved().viscosity_pa_s
+    )
+    assert math.log(h_eta / h0) / math.log(eta_ratio) == pytest.approx(0.67, abs=0.01)
+    h_q, q1 = heaviest(base.with_overrides(radial_load_n=8000.0))
+    assert math.log(h_q / h0) / math.log(q1 / q0) == pytest.approx(-0.067, abs=0.005)
+
+
+def test_walther_viscosity_passes_through_the_grades_and_falls_with_temperature():
+    for oil in OILS.values():
+        nu = walther_kinematic_viscosity_mm2_s(
+            [40.0, 70.0, 100.0], oil.viscosity_40c_mm2_s, oil.viscosity_100c_mm2_s
+        )
+        assert nu[0] == pytest.approx(oil.viscosity_40c_mm2_s, rel=1e-9)
+        assert nu[2] == pytest.approx(oil.viscosity_100c_mm2_s, rel=1e-9)
+        assert nu[0] > nu[1] > nu[2]
+    # ISO VG 68 at 70 C: ~22 mm^2/s on the ASTM D341 chart of a VI 100 oil (20-24)
+    hot = Lubricant(temperature_c=70.0).resolved()
+    density = 875.0 * (1 - 6.4e-4 * (70.0 - 15.0))
+    assert 20e-6 < hot.viscosity_pa_s / density < 24e-6
+
+
+# --- capacitance ----------------------------------------------------------------------------------
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("load_n", [200.0, 1900.0])
+def test_full_film_capacitance_is_hertz_plate_plus_outside_integral(load_n):
+    # seed 6208 inner contact; the gap outside the Hertz ellipse integrated numerically
+    from signatelec.config.bearing import Bearing, raceway_radii
+
+    b = Bearing()
+    rx, ry, r_eq, alpha = raceway_radii(b)["inner"]
+    a, bb, area = contact_ellipse(load_n, r_eq, alpha, b.ball_material.plane_strain_modulus_pa)
+    a, bb, area = float(a), float(bb), float(area)
+    h_c, h_m, eps_r = 0.8e-6, 50e-6, 2.2
+    eps = EPSILON_0_F_M * eps_r
+
+    def gap(x, y):  # h_c + the undeformed separation counted from the ellipse's edge
+        rho2 = (x / a) ** 2 + (y / bb) ** 2
+        return h_c + (1.0 - 1.0 / rho2) * (x * x / (2 * rx) + y * y / (2 * ry))
+
+    def edge(t):  # the meniscus: where the gap reaches h_m along the ray t
+        q = (a * math.cos(t)) ** 2 / (2 * rx) + (bb * math.sin(t)) ** 2 / (2 * ry)
+        return math.sqrt(1.0 + (h_m - h_c) / q)
+
+    def integrand(rho, t):
+        return eps * a * bb * rho / gap(a * rho * math.cos(t), bb * rho * math.sin(t))
+
+    outside, _ = integrate.dblquad(integrand, 0.0, 2 * math.pi, 1.0, edge, epsabs=0, epsrel=1e-9)
+    plate = eps * area / h_c
+    assert hertz_zone_capacitance_f(area, h_c, eps_r) == pytest.approx(plate, rel=1e-12)
+    model = outside_capacitance_f(rx, ry, h_c, h_m, eps_r)
+    assert model == pytest.approx(outside, rel=1e-6)  # measured 1e-10
+    assert plate > 0 and outside > 0
+
+
+def test_metallic_fraction_follows_lambda():
+    # Greenwood-Williamson F_1(h)/F_1(0): 1, 0.209 (Lambda 1), 9.5e-4 (Lambda 3)
+    f = metallic_fraction([0.0, 1.0, 3.0, 6.0])
+    assert f[0] == 1.0
+    assert f[1] == pytest.approx(0.2087, abs=2e-4)
+    assert f[2] == pytest.approx(9.5e-4, rel=0.02)
+    assert f[3] < 1e-8
+
+
+# --- the bearing ---------------------------------------------------------------------------------
+
+
+@pytest.mark.validation
+def test_resistance_tends_to_the_dry_models_as_speed_falls():
+    errors = []
+    for omega in (0.5, 0.05, 0.002):
+        scene = Scene.from_dict(
+            {
+                **LUBRICATED,
+                "operating": {"omega_rad_s": omega},
+                "numerics": {"fidelity": "quasistatic", "duration_s": 0.0072},
+            }
+        )
+        wet = simulate(scene)
+        dry = simulate(scene.with_overrides(lubrication=False))
+        lam = wet.balls.loc[wet.balls["inner_force_n"] > 0, "inner_film_parameter"].max()
+        errors.append(
+            (lam, (wet.signals["resistance_ohm"] / dry.signals["resistance_ohm"] - 1).abs().max())
+        )
+    (lam0, e0), (lam1, e1), (lam2, e2) = errors
+    assert lam2 < 0.01 and e2 < 0.01  # measured: Lambda 0.0045, +0.6 %
+    assert e0 > e1 > e2  # monotone towards the dry model
+
+
+@pytest.mark.validation
+def test_full_film_bearing_capacitance_and_impedance():
+    result = simulate(qs_scene())  # the seed's 6208 at 500 rad/s, ISO VG 68 at 40 C
+    signals, balls = result.signals, result.balls
+    loaded = balls["inner_force_n"] > 0
+    assert (balls.loc[loaded, "inner_regime"] == "full").all()
+    assert (balls.loc[loaded, "inner_film_parameter"] > 3).all()
+    c = signals["capacitance_f"].median()
+    # measured on deep-groove ball bearings of 20-40 mm bore in full film: of the order of
+    # 0.1-1 nF (Busse et al., IEEE Trans. Power Electron. 12 (1997); Magdun and Binder, IECON
+    # 2009; Schirra et al., Tribol. Int. 158 (2021)); measured here: 99 pF
+    assert 50e-12 < c < 1e-9
+    # a capacitor: phase -pi/2 within the film leakage, |Z| = 1 / (omega C)
+    assert np.allclose(signals["impedance_phase_rad"], -math.pi / 2, atol=1e-3)
+    f = result.scene.operating.measurement_frequency_hz
+    assert signals["impedance_ohm"].median() == pytest.approx(1 / (2 * math.pi * f * c), rel=1e-3)
+    assert signals["resistance_ohm"].min() > 1e9  # DC: the film insulates
+    # the capacitance carries the ball-pass ripple: its strongest line is f_bp
+    x = signals["capacitance_f"].to_numpy()
+    spectrum = np.abs(np.fft.rfft(x - x.mean()))
+    freq = np.fft.rfftfreq(x.size, 1.0 / result.scene.numerics.sample_rate_hz)
+    f_bp = result.scene.bearing.ball_pass_frequency_hz(result.scene.operating.omega_rad_s)
+    assert freq[spectrum.argmax()] == pytest.approx(f_bp, abs=freq[1])
+
+
+def test_bode_sweep_of_one_instant():
+    result = simulate(qs_scene())
+    f = np.geomspace(1e2, 1e6, 9)
+    sweep = impedance_sweep(result, f, instant=3)
+    assert list(sweep.columns) == [
+        "frequency_hz",
+        "impedance_ohm",
+        "impedance_phase_rad",
+        "capacitance_f",
+        "resistance_ohm",
+    ]
+    # a capacitor: |Z| f constant, C the same at every frequency and equal to the run's
+    assert np.ptp(sweep["impedance_ohm"] * f) / (sweep["impedance_ohm"] * f).mean() < 1e-3
+    assert sweep["capacitance_f"].to_numpy() == pytest.approx(
+        result.signals["capacitance_f"].iloc[3], rel=1e-6
+    )
+    with pytest.raises(ValueError, match="frequencies_hz"):
+        impedance_sweep(result, [0.0])
+
+
+# --- off costs nothing; the scene -----------------------------------------------------------------
+
+
+def test_lubrication_off_is_neither_computed_nor_written(monkeypatch):
+    import signatelec.engines.lubrication
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("add_lubrication called with lubrication off")
+
+    monkeypatch.setattr(signatelec.engines.lubrication, "add_lubrication", refuse)
+    scene = Scene.from_dict({"numerics": {"fidelity": "quasistatic"}})
+    off = simulate(scene)
+    for table, columns in FILM_COLUMNS.items():
+        assert not set(getattr(off, table).columns) & set(columns)
+    assert "lubrication_s" not in off.timings
+    with pytest.raises(AssertionError, match="add_lubrication called"):
+        simulate(scene.with_overrides(lubrication=True))
+    # the kernel does not know the option: the same machine code
+    assert KernelSpec.from_scene(scene.with_overrides(lubrication=True)) == KernelSpec.from_scene(
+        scene
+    )
+
+
+def test_lubrication_on_adds_every_column_and_keeps_the_others():
+    off = simulate(Scene.from_dict({"numerics": {"fidelity": "quasistatic"}}))
+    on = simulate(qs_scene())
+    for table, columns in FILM_COLUMNS.items():
+        before, after = getattr(off, table), getattr(on, table)
+        assert list(after.columns) == [*before.columns, *columns]
+        same = [c for c in before.columns if c != "resistance_ohm"]
+        pd.testing.assert_frame_equal(before[same], after[same])
+
+
+def test_lubricant_section_is_validated():
+    scene = Scene.from_dict({"lubricant": {"oil": "PAO 68", "temperature_c": 80.0}})
+    assert scene.lubricant.resolved().oil.name == "PAO 68"
+    assert Scene.from_dict(scene.to_dict()) == scene
+    for section, key, value, text in [
+        ("lubricant", "oil", "SAE 30", "must be one of ISO VG 32"),
+        ("lubricant", "temperature_c", 300.0, r"must be in \[-30, 150\]"),
+        ("lubricant", "viscosity_100c_mm2_s", 90.0, "must be below the 40 C viscosity"),
+        ("lubricant", "meniscus_gap_m", 0.0, "must be > 0 m"),
+        ("operating", "measurement_frequency_hz", -1.0, r"must be in \(0, 1e9\] Hz"),
+        ("effects", "lubrication", "wet", "must be one of ehl, none"),
+    ]:
+        with pytest.raises(SceneError, match=rf"{section}.{key} = .*{text}"):
+            Scene.from_dict({section: {key: value}})
