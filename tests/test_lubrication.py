@@ -170,12 +170,15 @@ def test_full_film_capacitance_is_hertz_plate_plus_outside_integral(load_n):
 
 
 def test_metallic_fraction_follows_lambda():
-    # Greenwood-Williamson F_1(h)/F_1(0): 1, 0.209 (Lambda 1), 9.5e-4 (Lambda 3)
-    f = metallic_fraction([0.0, 1.0, 3.0, 6.0])
+    # Greenwood-Williamson (F_1(h) - F_1(3)) / (F_1(0) - F_1(3)), F_1(h) = phi(h) - h Q(h) from
+    # tables of the normal law: F_1(1) = 0.24197 - 0.15866 = 0.08331, F_1(3) = 0.0044318 -
+    # 3 x 0.0013499 = 0.0003821, F_1(0) = 0.39894
+    f = metallic_fraction([0.0, 1.0, 3.0, 6.0, 2.999])
     assert f[0] == 1.0
-    assert f[1] == pytest.approx(0.2087, abs=2e-4)
-    assert f[2] == pytest.approx(9.5e-4, rel=0.02)
-    assert f[3] < 1e-8
+    assert f[1] == pytest.approx((0.08331 - 0.0003821) / (0.39894 - 0.0003821), rel=1e-4)
+    assert f[2] == 0.0 and f[3] == 0.0
+    # continuous at the full-film limit: slope Q(3) / (F_1(0) - F_1(3)) = 0.0034
+    assert f[4] == pytest.approx(0.001 * 0.0013499 / (0.39894 - 0.0003821), rel=0.01)
 
 
 # --- the bearing ---------------------------------------------------------------------------------

@@ -86,3 +86,28 @@ def operating_map(out, quick, cages, fresh, quiet):
     if not quiet:
         for path in paths.values():
             click.echo(f"wrote {path}")
+
+
+@study.command("lubrication-regimes")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--quick", is_flag=True, help="Four speeds, one load and temperature: a check.")
+@click.option("--quiet", is_flag=True, help="No progress or file list.")
+def lubrication_regimes(out, quick, quiet):
+    """Lambda, |Z| and phase of the lubricated seed bearing over speed, load and oil temperature:
+    DIR/lubrication_regimes.{parquet,md,png}."""
+    from signatelec.io import holds_only, write_marker
+    from signatelec.studies.lubrication_regimes import run_study
+
+    own = ("lubrication_regimes.parquet", "lubrication_regimes.md", "lubrication_regimes.png")
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, "study lubrication-regimes", previous=previous, replaced=False)
+    try:
+        paths = run_study(out, quick=quick, log=None if quiet else click.echo)
+        write_marker(out, "study lubrication-regimes")
+    except OSError as exc:
+        raise Stopped(
+            f"--out {out!r}: cannot write there ({exc.strerror or exc})", EXIT_INCOMPLETE
+        ) from None
+    if not quiet:
+        for path in paths.values():
+            click.echo(f"wrote {path}")

@@ -8,9 +8,10 @@ is, in parallel:
   the inlet meniscus where the gap reaches ``meniscus_gap_m``; and the film's own leakage
   resistance rho h_c / S over the Hertz zone;
 - **the asperity contacts**: metal through the fraction f(Lambda) of the Hertz area in real
-  contact, Greenwood and Williamson's real area of Gaussian summits F_1(Lambda) / F_1(0). It is
-  1 at Lambda = 0, 0.21 at Lambda = 1, 1e-3 at Lambda = 3: the seed's dry ball conductance
-  (eq. 16, split equally between the ball's two contacts) is the limit as the speed falls.
+  contact, Greenwood and Williamson's real area of Gaussian summits F_1(Lambda) / F_1(0), cut to
+  0 at the full-film limit Lambda = 3 (:func:`metallic_fraction`): 1 at Lambda = 0, 0.21 at 1.
+  The seed's dry ball conductance (eq. 16, split equally between the ball's two contacts) is
+  the limit as the speed falls.
 
 Outside-zone capacitance. Beyond the Hertz ellipse (semi-axes a along R_x, b along R_y) the gap
 is taken as h_c plus the undeformed separation counted from the ellipse's edge along each ray of
@@ -48,21 +49,31 @@ import numpy as np
 from scipy.special import erfc
 
 from signatelec.physics.conductance import ball_conductance
+from signatelec.physics.ehl import FULL_FILM_LAMBDA
 
 #: Vacuum permittivity, F/m (CODATA 2018).
 EPSILON_0_F_M = 8.8541878128e-12
 _F1_AT_ZERO = 1.0 / math.sqrt(2.0 * math.pi)
 
 
-def metallic_fraction(film_parameter):
-    """Share of the Hertz area in asperity contact, F_1(Lambda) / F_1(0) (Greenwood-Williamson).
+def _f1(lam):
+    """Greenwood-Williamson's F_1(h) = integral_h^inf (s - h) phi(s) ds = phi(h) - h Q(h)."""
+    return np.exp(-0.5 * lam * lam) * _F1_AT_ZERO - lam * 0.5 * erfc(lam / math.sqrt(2.0))
 
-    F_1(h) = integral_h^inf (s - h) phi(s) ds = phi(h) - h Q(h), phi the standard normal density
-    and Q its upper tail: 1 at Lambda = 0, 0.209 at 1, 9.5e-4 at 3.
+
+def metallic_fraction(film_parameter):
+    """Share of the Hertz area in asperity contact at a film parameter Lambda.
+
+    Greenwood and Williamson's real area of Gaussian summits, F_1(Lambda), normalised to 1 at
+    Lambda = 0 and cut to 0 at the full-film limit Lambda = 3 (:data:`FULL_FILM_LAMBDA`):
+    (F_1(Lambda) - F_1(3)) / (F_1(0) - F_1(3)). Finished bearing surfaces have fewer high peaks
+    than a Gaussian (negative skewness), and a full film carries no metallic contact; without
+    the cut the Gaussian tail (F_1(3) / F_1(0) = 1e-3) would keep a few ohms of metal beside a
+    film of 100 kilohms. 1 at Lambda = 0 (the seed's dry contact), 0.208 at 1, 0 from 3.
     """
     lam = np.maximum(np.asarray(film_parameter, dtype=float), 0.0)
-    f1 = np.exp(-0.5 * lam * lam) * _F1_AT_ZERO - lam * 0.5 * erfc(lam / math.sqrt(2.0))
-    return np.clip(f1 / _F1_AT_ZERO, 0.0, 1.0)
+    top = _f1(FULL_FILM_LAMBDA)
+    return np.clip((_f1(lam) - top) / (_F1_AT_ZERO - top), 0.0, 1.0)
 
 
 def hertz_zone_capacitance_f(area_m2, gap_m, relative_permittivity: float):
