@@ -32,7 +32,7 @@ from signatelec.physics.lubricated_contact import EPSILON_0_F_M
 from signatelec.plots import new_figure, save_figure
 
 LOWEST_RPM = 1.0
-N_SPEEDS = 16
+N_SPEEDS = 32
 LOAD_FRACTIONS = (0.05, 0.2, 0.5)
 TEMPERATURES_C = (40.0, 70.0, 100.0)
 #: Samples per ball pass and ball passes of a cell's steady window.
