@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -356,3 +357,24 @@ def test_load_state_estimator_trains_on_capacitance_traces():
     error = np.abs(model.estimator.predict(held_out[model.features])["radial_load_n"] / test - 1)
     # measured: 6.4 % (a constant guess: 44 %)
     assert error.mean() < 0.10
+
+
+def test_simulate_command_reports_the_lubricated_bearing(tmp_path):
+    from click.testing import CliRunner
+
+    from signatelec.cli import cli
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[effects]\nlubrication = true\n[numerics]\nfidelity = "quasistatic"\n')
+    out = CliRunner().invoke(cli, ["simulate", "--scene", str(scene), "--out", str(tmp_path / "r")])
+    assert out.exit_code == 0, out.output
+    # full film: Lambda ~13 on the heaviest contact, a ~99 pF capacitor
+    assert re.search(
+        r"lubricated \(ISO VG 68 at 40 C\): smallest film parameter 1[23]\.", out.output
+    )
+    assert re.search(r"phase -1.571 rad, C = 9[89]\.\d pF", out.output)
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[lubricant]\noil = "SAE 30"\n')
+    out = CliRunner().invoke(cli, ["simulate", "--scene", str(bad), "--out", str(tmp_path / "b")])
+    assert out.exit_code == 2 and "lubricant.oil = 'SAE 30': must be one of" in out.output
+    assert "Traceback" not in out.output and not (tmp_path / "b").exists()

@@ -192,7 +192,20 @@ def summary(result, out: str | None = None) -> str:
             f"loaded balls = {st.loaded_balls.mean():.2f}, cage speed = "
             f"{st.cage_speed_rad_s.mean():.2f} rad/s (kinematic {kin:.2f})"
         )
-        if "resistance_ohm" in st:
+        if "impedance_ohm" in st:
+            balls = result.steady("balls")
+            lam = min(
+                balls.loc[balls[f"{race}_force_n"] > 0, f"{race}_film_parameter"].min()
+                for race in ("inner", "outer")
+            )
+            lines.append(
+                f"lubricated ({sc.lubricant.oil} at {sc.lubricant.temperature_c:g} C): smallest "
+                f"film parameter {lam:.3g}, DC resistance {st.resistance_ohm.mean():.4g} Ohm, at "
+                f"{sc.operating.measurement_frequency_hz:g} Hz |Z| = {st.impedance_ohm.mean():.4g}"
+                f" Ohm, phase {st.impedance_phase_rad.mean():.3f} rad, C = "
+                f"{st.capacitance_f.mean() * 1e12:.1f} pF"
+            )
+        elif "resistance_ohm" in st:
             lines.append(f"resistance: mean {st.resistance_ohm.mean() * 1e3:.4f} mOhm")
     if out:
         lines.append(f"wrote {out}/balls.parquet, {out}/signals.parquet")

@@ -115,7 +115,8 @@ OPTIONS: tuple[Option, ...] = (
         "ehl: oil films by Hamrock-Dowson, film capacitance and asperity conduction, the "
         "bearing's impedance at operating.measurement_frequency_hz (physics.ehl, "
         "physics.lubricated_contact), computed from the recorded kinematics after the run, "
-        "~1 us per ball and instant; none: the seed's dry contacts, nothing computed",
+        "~4 us per recorded instant (the dry electrical model's cost); none: the seed's dry "
+        "contacts, nothing computed",
         off="none", on="ehl",
     ),
     Option(
