@@ -59,6 +59,8 @@ def test_film_of_hamrocks_deep_groove_example():
     # omega_i = 400 rad/s, w_z = 8900 N, heaviest ball 5 w_z / n (Stribeck). The reference
     # follows the book's procedure: its R_x, R_y, u = (d_e^2 - d^2) omega_i / (4 d_e) and its
     # ellipticity fit k = 1.0339 (R_y / R_x)^0.636 (the model uses the seed's alpha^(2/pi)).
+    # The book's printed results were not at hand: the reference is its procedure evaluated
+    # here (h_min 0.211 um inner, 0.252 um outer, Lambda 3.2 and 3.9 with its roughness).
     d_i, d_o, d, r, n_balls = 52.291e-3, 77.706e-3, 12.7e-3, 6.604e-3, 9
     e_prime = 200e9 / (1 - 0.3**2)
     eta, xi, omega_i, load = 0.01, 2.2e-8, 400.0, 5 * 8900.0 / n_balls
@@ -203,7 +205,7 @@ def test_resistance_tends_to_the_dry_models_as_speed_falls():
             (lam, (wet.signals["resistance_ohm"] / dry.signals["resistance_ohm"] - 1).abs().max())
         )
     (lam0, e0), (lam1, e1), (lam2, e2) = errors
-    assert lam2 < 0.01 and e2 < 0.01  # measured: Lambda 0.0045, +0.6 %
+    assert lam2 < 0.01 and e2 < 0.01  # measured: Lambda 0.006, +0.38 %
     assert e0 > e1 > e2  # monotone towards the dry model
 
 
