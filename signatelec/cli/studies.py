@@ -98,7 +98,12 @@ def lubrication_regimes(out, quick, quiet):
     from signatelec.io import holds_only, write_marker
     from signatelec.studies.lubrication_regimes import run_study
 
-    own = ("lubrication_regimes.parquet", "lubrication_regimes.md", "lubrication_regimes.png")
+    own = (
+        "lubrication_regimes.parquet",
+        "lubrication_regimes.md",
+        "lubrication_regimes.png",
+        "bode.png",
+    )
     previous = lambda d: holds_only(d, own, False)  # noqa: E731
     claim_output(out, "study lubrication-regimes", previous=previous, replaced=False)
     try:

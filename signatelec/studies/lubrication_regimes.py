@@ -11,7 +11,8 @@ the dry model's (the same scene with lubrication off), |Z|, phase and parallel c
 
 The dry model "holds" in a cell when the lubricated DC resistance is within
 :data:`DRY_RTOL` of the dry model's. Writes ``lubrication_regimes.parquet``,
-``lubrication_regimes.md`` and ``lubrication_regimes.png``.
+``lubrication_regimes.md``, ``lubrication_regimes.png`` and ``bode.png`` (the impedance over
+frequency at one instant in each regime).
 """
 
 from __future__ import annotations
@@ -263,6 +264,31 @@ def figure(table: pd.DataFrame, path: Path) -> Path:
     return save_figure(fig, path)
 
 
+#: Speeds of the Bode plot (rpm): boundary, mixed and full film at 40 C, 0.2 C_r; the last is
+#: the seed's 500 rad/s.
+BODE_RPM = (10.0, 300.0, 500.0 / RPM)
+
+
+def bode_figure(path: Path) -> Path:
+    """|Z| and phase over 10 Hz-10 MHz at one instant of the seed's scene at :data:`BODE_RPM`
+    (:func:`signatelec.engines.lubrication.impedance_sweep`)."""
+    from signatelec.engines.lubrication import impedance_sweep
+
+    f = np.geomspace(10.0, 1e7, 121)
+    fig = new_figure(7.0, 5.0)
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    for rpm in BODE_RPM:
+        sweep = impedance_sweep(simulate(cell_scene(rpm * RPM, 0.2, 40.0)), f, instant=0)
+        top.loglog(f, sweep.impedance_ohm, label=f"{rpm:.4g} rpm")
+        bottom.semilogx(f, sweep.impedance_phase_rad)
+    top.set_ylabel("|Z| (ohm)")
+    bottom.set_ylabel("phase (rad)")
+    bottom.set_xlabel("frequency (Hz)")
+    top.legend(fontsize=7)
+    top.set_title("seed bearing, 0.2 C_r, ISO VG 68 at 40 C: one instant", fontsize=8)
+    return save_figure(fig, path)
+
+
 def run_study(out_dir, *, quick: bool = False, log=None) -> dict[str, Path]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -273,8 +299,10 @@ def run_study(out_dir, *, quick: bool = False, log=None) -> dict[str, Path]:
         "parquet": out / "lubrication_regimes.parquet",
         "md": out / "lubrication_regimes.md",
         "png": out / "lubrication_regimes.png",
+        "bode": out / "bode.png",
     }
     write_bytes_atomic(paths["parquet"], table.to_parquet(index=False))
     write_bytes_atomic(paths["md"], markdown(table, run_time).encode("utf-8"))
     figure(table, paths["png"])
+    bode_figure(paths["bode"])
     return paths
