@@ -24,6 +24,7 @@ from signatelec.config.scene import Scene
 from signatelec.data import (
     LHS_KEY,
     MANIFEST_FILE,
+    SIGNALS,
     STATUS_FAILED,
     STATUS_OK,
     SpecError,
@@ -105,7 +106,7 @@ def comparable(df: pd.DataFrame) -> pd.DataFrame:
 
 def assert_same_traces(a: pd.DataFrame, b: pd.DataFrame) -> None:
     a, b = comparable(a), comparable(b)
-    lists = ["resistance_ohm", "resistance_clean_ohm"]
+    lists = list(SIGNALS)
     pd.testing.assert_frame_equal(
         a.drop(columns=lists), b.drop(columns=lists), check_exact=True, check_dtype=False
     )

@@ -380,3 +380,55 @@ def test_simulate_command_reports_the_lubricated_bearing(tmp_path):
     out = CliRunner().invoke(cli, ["simulate", "--scene", str(bad), "--out", str(tmp_path / "b")])
     assert out.exit_code == 2 and "lubricant.oil = 'SAE 30': must be one of" in out.output
     assert "Traceback" not in out.output and not (tmp_path / "b").exists()
+
+
+CAPACITANCE_SPEC = {
+    "dataset": {
+        "seed": 5,
+        "fidelity": "quasistatic",
+        "duration_s": 0.02,
+        "signal": "capacitance_f",
+    },
+    "design": [
+        {
+            "kind": "grid",
+            "factors": {
+                "radial_load_fraction": {"values": [0.1, 0.3]},
+                "clearance_m": {"value": 0.0},
+                "omega_rad_s": {"value": 500.0},
+            },
+        }
+    ],
+    "measurement": {"sample_rate_hz": 10000.0, "noise_fraction": 0.001, "drift_fraction": 0.0},
+    "scene": {"effects": {"lubrication": True}},
+}
+
+
+def test_dataset_generator_writes_capacitance_traces(tmp_path):
+    from signatelec.data import read_dataset
+    from signatelec.data.schedule import generate
+    from signatelec.data.spec import SpecError, spec_from_dict
+    from signatelec.estimation.training import features_from_dataset
+
+    spec = spec_from_dict(CAPACITANCE_SPEC)
+    assert spec.to_dict()["dataset"]["signal"] == "capacitance_f"
+    generate(spec, tmp_path / "ds", workers=0)
+    table = read_dataset(tmp_path / "ds").sort_values("radial_load_n", ignore_index=True)
+    assert (table["status"] == "ok").all() and (table["signal"] == "capacitance_f").all()
+    assert table["capacitance_f"].map(len).eq(200).all()
+    assert table["resistance_ohm"].map(len).eq(0).all()
+    light, heavy = (np.mean(c) for c in table["capacitance_clean_f"])
+    assert 50e-12 < light < heavy < 1e-9  # full film: grows with the load
+    features = features_from_dataset(tmp_path / "ds")
+    assert len(features) == 2 and np.isfinite(features["level_mean_ohm"]).all()
+    # the resistance's spec is unchanged; a capacitance needs the lubricated scene, no ohm offset
+    plain = {**CAPACITANCE_SPEC, "dataset": {"fidelity": "quasistatic"}}
+    assert "signal" not in spec_from_dict(plain).to_dict()["dataset"]
+    dry = {**CAPACITANCE_SPEC, "scene": {}}
+    with pytest.raises(SpecError, match=r"dataset.signal = 'capacitance_f': .*lubrication"):
+        spec_from_dict(dry)
+    offset = {**CAPACITANCE_SPEC, "measurement": {"offset_ohm": 1e-4}}
+    with pytest.raises(SpecError, match=r"measurement.offset_ohm = .*must be 0 when"):
+        spec_from_dict(offset)
+    with pytest.raises(SpecError, match=r"dataset.signal = 'current_a': must be one of"):
+        spec_from_dict({**CAPACITANCE_SPEC, "dataset": {"signal": "current_a"}})

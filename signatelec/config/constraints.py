@@ -523,6 +523,10 @@ MAX_TRACES = 1_000_000
 MAX_GRID_LEVELS = 10_000
 SCALES = ("linear", "log")
 
+#: The simulated signals a dataset may measure: the resistance, or the lubricated bearing's
+#: capacitance or impedance (``effects.lubrication = "ehl"``).
+SIGNALS = ("resistance_ohm", "capacitance_f", "impedance_ohm")
+
 DATASET = (
     Constraint("dataset", "name", STRING),
     Constraint("dataset", "description", STRING),
@@ -530,6 +534,7 @@ DATASET = (
     Constraint("dataset", "fidelity", CHOICE, choices=Limit("fidelities")),
     Constraint("dataset", "duration_s", NUMBER, 0.0, 10.0, low_open=True),
     Constraint("dataset", "settle_s", NUMBER, 0.0, 10.0),
+    Constraint("dataset", "signal", CHOICE, choices=SIGNALS),
 )
 
 DESIGN = (

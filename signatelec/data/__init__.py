@@ -25,7 +25,14 @@ from signatelec.data.design import (
     trace_rng,
     trace_seed_sequence,
 )
-from signatelec.data.runner import STATUS_FAILED, STATUS_OK, EpsilonError, run_trace, warm_up
+from signatelec.data.runner import (
+    SIGNALS,
+    STATUS_FAILED,
+    STATUS_OK,
+    EpsilonError,
+    run_trace,
+    warm_up,
+)
 from signatelec.data.schedule import Summary, generate
 from signatelec.data.spec import (
     DesignBlock,
@@ -48,6 +55,7 @@ from signatelec.data.store import (
 __all__ = [
     "LHS_KEY",
     "MANIFEST_FILE",
+    "SIGNALS",
     "SPEC_FILE",
     "STATUS_FAILED",
     "STATUS_OK",

@@ -24,8 +24,14 @@ from signatelec.measurement.model import MeasurementError, MeasurementModel
 from signatelec.physics.regimes import regime_of
 
 STATUS_OK, STATUS_FAILED = "ok", "failed"
-#: The record's signal columns (the rest are labels).
-SIGNALS = ("resistance_ohm", "resistance_clean_ohm")
+#: The measured and the clean trace's columns of each signal a spec may measure
+#: (``dataset.signal``); the rest of a record are labels.
+TRACE_COLUMNS = {
+    "resistance_ohm": ("resistance_ohm", "resistance_clean_ohm"),
+    "capacitance_f": ("capacitance_f", "capacitance_clean_f"),
+    "impedance_ohm": ("impedance_ohm", "impedance_clean_ohm"),
+}
+SIGNALS = tuple(c for pair in TRACE_COLUMNS.values() for c in pair)
 
 
 class EpsilonError(ValueError):
@@ -170,8 +176,8 @@ def _new_record(ctx: TraceContext, task: TraceTask) -> dict[str, Any]:
         "max_ball_load_n": nan,
         "ball_pass_frequency_hz": b.ball_pass_frequency_hz(point.omega_rad_s),
         "cpu_s": nan,
-        "resistance_ohm": np.zeros(0),
-        "resistance_clean_ohm": np.zeros(0),
+        **dict.fromkeys(SIGNALS, np.zeros(0)),
+        "signal": ctx.signal,
         # the regime from the design, kept when the clearance cannot be had
         "regime": point.design_regime,
     }
@@ -219,9 +225,7 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
             result = simulate(scene)
             sig = result.signals
             keep = sig["time_s"].to_numpy() >= t0 - m.guard_s - 1e-12
-            clean = m.clean(
-                sig["time_s"].to_numpy()[keep], sig["resistance_ohm"].to_numpy()[keep], t0, n
-            )
+            clean = m.clean(sig["time_s"].to_numpy()[keep], sig[ctx.signal].to_numpy()[keep], t0, n)
             t = sig["time_s"].to_numpy()
             window = sig[(t >= t0 - 1e-12) & (t <= t0 + (n - 1) / m.sample_rate_hz + 1e-12)]
             rec["epsilon"] = float(window["epsilon"].mean())
@@ -232,15 +236,17 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
             rec["noise_fraction"] = draw.noise_fraction
             rec["drift_fraction"] = draw.drift_fraction
             rec["offset_ohm"] = draw.offset_ohm
-            rec["resistance_clean_ohm"] = clean
-            rec["resistance_mean_ohm"] = float(np.mean(clean))
-            rec["resistance_ohm"] = m.measure(clean, draw, rng)
+            measured, clean_column = TRACE_COLUMNS[ctx.signal]
+            rec[clean_column] = clean
+            rec["resistance_mean_ohm"] = float(window["resistance_ohm"].mean())
+            if ctx.signal == "resistance_ohm":
+                rec["resistance_mean_ohm"] = float(np.mean(clean))
+            rec[measured] = m.measure(clean, draw, rng)
         messages = dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught)
         rec["warnings"] = " | ".join(messages)
     except (SceneError, DivergenceError, EpsilonError, MeasurementError) as exc:
         rec["status"] = STATUS_FAILED
         rec["error"] = f"{type(exc).__name__}: {exc}"
-        rec["resistance_ohm"] = np.zeros(0)
-        rec["resistance_clean_ohm"] = np.zeros(0)
+        rec.update(dict.fromkeys(SIGNALS, np.zeros(0)))
     rec["cpu_s"] = time.thread_time() - cpu0
     return rec

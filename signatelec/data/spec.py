@@ -126,6 +126,8 @@ class TraceContext:
     root_seed: int
     #: Some trace has a target epsilon (the workers then import the quasi-static solver).
     needs_epsilon: bool = False
+    #: The simulated signal measured (a column of the run's ``signals`` table).
+    signal: str = "resistance_ohm"
 
 
 @dataclass(frozen=True)
@@ -137,6 +139,7 @@ class Spec:
     fidelity: str
     duration_s: float
     settle_s: float
+    signal: str
     designs: tuple[DesignBlock, ...]
     measurement: MeasurementModel
     scene: Scene
@@ -157,6 +160,7 @@ class Spec:
             self.measurement,
             self.seed,
             needs_epsilon,
+            self.signal,
         )
 
     def to_dict(self) -> dict:
@@ -172,6 +176,8 @@ class Spec:
                 "fidelity": self.fidelity,
                 "duration_s": self.duration_s,
                 "settle_s": self.settle_s,
+                # named only when not the resistance: a spec of earlier releases keeps its identity
+                **({"signal": self.signal} if self.signal != "resistance_ohm" else {}),
             },
             "design": [b.to_dict() for b in self.designs],
             "measurement": m,
@@ -217,6 +223,7 @@ def spec_from_dict(data: dict, path: str = "<spec>") -> Spec:
         "fidelity": "dem",
         "duration_s": 0.05,
         "settle_s": 2e-3,
+        "signal": "resistance_ohm",
     }
     dataset = {row.key: check.check(row, ds.get(row.key, defaults[row.key])) for row in DATASET}
 
@@ -229,6 +236,20 @@ def spec_from_dict(data: dict, path: str = "<spec>") -> Spec:
             f"must be >= 1/duration_s = {1.0 / dataset['duration_s']:.4g} Hz",
         )
     scene, scene_table = _base_scene(check, data.get("scene", {}))
+    if dataset["signal"] != "resistance_ohm":
+        if scene.effects.lubrication == "none":
+            check.fail(
+                "dataset.signal",
+                dataset["signal"],
+                'is the lubricated bearing\'s: needs [scene.effects] lubrication = "ehl"',
+            )
+        if measurement.offset_ohm != (0.0, 0.0) or measurement.quantisation_ohm != 0.0:
+            check.fail(
+                "measurement.offset_ohm",
+                [*measurement.offset_ohm, measurement.quantisation_ohm],
+                f"offset_ohm and quantisation_ohm must be 0 when dataset.signal = "
+                f"{dataset['signal']} (they are in ohm); noise and drift are fractions",
+            )
 
     raw_designs = data.get("design")
     if raw_designs is None:

@@ -88,6 +88,11 @@ def _schema():
             ("cpu_s", f64),
             ("resistance_ohm", pa.list_(f64)),
             ("resistance_clean_ohm", pa.list_(f64)),
+            ("signal", s),
+            ("capacitance_f", pa.list_(f64)),
+            ("capacitance_clean_f", pa.list_(f64)),
+            ("impedance_ohm", pa.list_(f64)),
+            ("impedance_clean_ohm", pa.list_(f64)),
         ]
     )
 

@@ -212,7 +212,9 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
     A dataset holds one measured trace per row (``resistance_ohm`` as a list column, its
     ``sample_rate_hz`` and labels); each trace gives one row of features, grouped by trace_id.
     Failed traces are skipped, and so are traces the sanity layer refuses
-    (:func:`screened_traces`; their one-line reasons in ``table.attrs["refused"]``).
+    (:func:`screened_traces`; their one-line reasons in ``table.attrs["refused"]``). A dataset
+    of another signal (its ``signal`` column: ``capacitance_f`` or ``impedance_ohm``) gives the
+    features of that trace; the sanity layer, whose rules are a resistance's, is not applied.
     """
     path = Path(path)
     if path.is_file():
@@ -225,9 +227,14 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
         table = read_dataset(path)
     if "status" in table.columns:
         table = table[table["status"] == "ok"]
-    lengths = table["resistance_ohm"].map(len)
+    signal = table["signal"].iloc[0] if "signal" in table.columns and len(table) else None
+    column = signal or "resistance_ohm"
+    lengths = table[column].map(len)
     table = table[lengths > 0].reset_index(drop=True)
-    traces, rows, refused = screened_traces(table)
+    if column == "resistance_ohm":
+        traces, rows, refused = screened_traces(table)
+    else:
+        traces, rows, refused = [np.asarray(x) for x in table[column]], list(range(len(table))), []
     table = table.iloc[rows].reset_index(drop=True)
     feats = features_frame(
         traces, table["sample_rate_hz"].to_numpy(), table["omega_rad_s"].to_numpy()
