@@ -120,8 +120,9 @@ def contact_state(scene: Scene, balls: pd.DataFrame, signals: pd.DataFrame) -> C
         area[race] = bearing_contact_area(force, b, race)
         lam[race] = h_min / oil.roughness_m
         metal[race] = np.where(loaded, metallic_fraction(lam[race]), 0.0)
-        # the mean planes of rough surfaces in contact stay ~sigma apart: the capacitive gap
         film[race] = h_c
+        # rough surfaces in contact keep their mean planes ~sigma apart: the capacitive gap
+        # never closes below the composite roughness (at rest h_c is 0)
         cap[race], leak[race] = contact_film(
             area[race], np.maximum(h_c, oil.roughness_m), metal[race], rx, ry, oil
         )
