@@ -73,6 +73,7 @@ from signatelec.engines.dem.records import (
     R_OUTER,
     R_SIDE0,
     R_WALL,
+    REC_ROTATION,
     XI_ROTATION,
 )
 from signatelec.physics import contact as _contact
@@ -506,7 +507,7 @@ def record(p, s, rec, i, t):
         rec.sched[i, q] = s.sched[q]
     if DEFECTS_BALL:
         for k in range(z):
-            rec.angle[i, k] = s.xi[k, XI_ROTATION]
+            rec.fcon[i, k, REC_ROTATION] = s.xi[k, XI_ROTATION]
     if ENERGY:
         rec.energy[i, 0] = s.energy[0]
         rec.energy[i, 1] = s.energy[1]

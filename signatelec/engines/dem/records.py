@@ -86,8 +86,8 @@ OK, OVERLAP, NONFINITE = 0, 1, 2
 #: ball k on ball k + 1 without cage, or ball k in its pocket of the rigid cage), 8-9 cage ball j
 #: on ball j + 1; slot + 10 holds an overlap root of the step before.
 R_INNER, R_OUTER, R_WALL, R_SIDE0, R_SIDE1 = 0, 2, 4, 6, 8
-#: Column of State.xi holding the ball's rotation angle.
-XI_ROTATION = 4
+#: Column of State.xi holding the ball's rotation angle, and of Recording.fcon recording it.
+XI_ROTATION, REC_ROTATION = 4, 6
 
 
 class State(NamedTuple):
@@ -128,10 +128,12 @@ class Recording(NamedTuple):
     pos: np.ndarray  # (R, N, 2)
     vel: np.ndarray  # (R, N, 2)
     spin: np.ndarray  # (R, Z)
-    fcon: np.ndarray  # (R, Z, 6), as State.fcon
+    # (R, Z, 7), as State.fcon in columns 0-5; column REC_ROTATION the ball's rotation angle
+    # (State.xi[:, XI_ROTATION], rad; with ball defects only). A column, not a field: a field
+    # more would change the time loop's machine code.
+    fcon: np.ndarray
     sched: np.ndarray  # (R, 4), as State.sched
     energy: np.ndarray  # (R, 4), as State.energy with the kinetic energy in column 3
-    angle: np.ndarray  # (R, Z), the balls' rotation angles (State.xi[:, XI_ROTATION])
 
 
 def new_state(pos: np.ndarray) -> State:
@@ -160,8 +162,7 @@ def new_recording(n_instants: int, z: int) -> Recording:
         pos=np.zeros((n_instants, nb, 2)),
         vel=np.zeros((n_instants, nb, 2)),
         spin=np.zeros((n_instants, z)),
-        fcon=np.zeros((n_instants, z, 6)),
+        fcon=np.zeros((n_instants, z, 7)),
         sched=np.zeros((n_instants, 4)),
         energy=np.zeros((n_instants, 4)),
-        angle=np.zeros((n_instants, z)),
     )
