@@ -20,6 +20,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from signatelec.config.defects import MAX_DEFECTS, MAX_LOAD_TABLE_POINTS
+from signatelec.physics.defects import TABLE_ROWS
+
 #: Scalar parameters of one run (a numpy structured scalar; the kernel reads ``p.dt_s``).
 PARAMS = np.dtype(
     [
@@ -55,6 +58,17 @@ PARAMS = np.dtype(
         ("tangential_stiffness_factor", "f8", (2,)),
         # inner, outer raceway: C_t = factor delta^{1/4} (Hertz) or factor (linear), eq. 5
         ("tangential_damping_factor", "f8", (2,)),
+        # defects and abnormal loads (read only by kernels with their flags, spec.SCENE_FLAGS)
+        ("defect_count", "i8"),
+        ("defect_table", "f8", (TABLE_ROWS, MAX_DEFECTS)),  # physics.defects.defect_table
+        ("contact_radius_m", "f8", (2,)),  # in-plane equivalent radii, inner and outer race
+        ("lobes", "f8"),  # out-of-round outer race: A cos(n theta)
+        ("lobe_amplitude_m", "f8"),
+        ("unbalance_n_s2", "f8"),  # unbalance force / omega^2 (m e), N s^2
+        ("unbalance_phase_rad", "f8"),
+        ("load_table_count", "i8"),
+        ("load_table_time_s", "f8", (MAX_LOAD_TABLE_POINTS,)),  # after the set-up
+        ("load_table_load_n", "f8", (MAX_LOAD_TABLE_POINTS,)),
     ]
 )
 
@@ -72,6 +86,8 @@ OK, OVERLAP, NONFINITE = 0, 1, 2
 #: ball k on ball k + 1 without cage, or ball k in its pocket of the rigid cage), 8-9 cage ball j
 #: on ball j + 1; slot + 10 holds an overlap root of the step before.
 R_INNER, R_OUTER, R_WALL, R_SIDE0, R_SIDE1 = 0, 2, 4, 6, 8
+#: Column of State.xi holding the ball's rotation angle, and of Recording.fcon recording it.
+XI_ROTATION, REC_ROTATION = 4, 6
 
 
 class State(NamedTuple):
@@ -82,8 +98,11 @@ class State(NamedTuple):
     acc: np.ndarray  # (N, 2) accelerations, m/s^2
     spin: np.ndarray  # (Z,) ball spin, rad/s
     spin_acc: np.ndarray  # (Z,) ball spin acceleration, rad/s^2
-    # (Z, 4) tangential spring, [ball, slot]: 0-1 displacement on the inner, outer raceway (m),
-    # 2-3 the slip speeds of the step before (m/s)
+    # (Z, 5) per-ball contact state, [ball, slot]: 0-1 tangential spring displacement on the
+    # inner, outer raceway (m), 2-3 the slip speeds of the step before (m/s), XI_ROTATION the
+    # ball's rotation angle (rad, integrated spin; tracked with ball defects only). Kept here, not
+    # in a State field of its own: a 13th field made the seed's step 40 % slower (numba passes the
+    # tuple to forces() field by field).
     xi: np.ndarray
     roots: np.ndarray  # (Z, 20) warm-started roots, see R_INNER ...
     # (Z, 6) contact forces, N, [ball, kind]: 0 inner normal, 1 outer normal, 2 inner tangential,
@@ -109,7 +128,10 @@ class Recording(NamedTuple):
     pos: np.ndarray  # (R, N, 2)
     vel: np.ndarray  # (R, N, 2)
     spin: np.ndarray  # (R, Z)
-    fcon: np.ndarray  # (R, Z, 6), as State.fcon
+    # (R, Z, 7), as State.fcon in columns 0-5; column REC_ROTATION the ball's rotation angle
+    # (State.xi[:, XI_ROTATION], rad; with ball defects only). A column, not a field: a field
+    # more would change the time loop's machine code.
+    fcon: np.ndarray
     sched: np.ndarray  # (R, 4), as State.sched
     energy: np.ndarray  # (R, 4), as State.energy with the kinetic energy in column 3
 
@@ -123,7 +145,7 @@ def new_state(pos: np.ndarray) -> State:
         acc=np.zeros_like(pos, dtype=float),
         spin=np.zeros(z),
         spin_acc=np.zeros(z),
-        xi=np.zeros((z, 4)),
+        xi=np.zeros((z, 5)),
         roots=np.zeros((z, 20)),
         fcon=np.zeros((z, 6)),
         sched=np.zeros(4),
@@ -140,7 +162,7 @@ def new_recording(n_instants: int, z: int) -> Recording:
         pos=np.zeros((n_instants, nb, 2)),
         vel=np.zeros((n_instants, nb, 2)),
         spin=np.zeros((n_instants, z)),
-        fcon=np.zeros((n_instants, z, 6)),
+        fcon=np.zeros((n_instants, z, 7)),
         sched=np.zeros((n_instants, 4)),
         energy=np.zeros((n_instants, 4)),
     )
