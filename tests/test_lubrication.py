@@ -52,15 +52,27 @@ def qs_scene(**operating) -> Scene:
 
 
 @pytest.mark.validation
-def test_film_of_hamrocks_deep_groove_example():
-    # Hamrock, Fundamentals of Fluid Film Lubrication (1994; NASA RP-1255 1991), ch. 22 example:
-    # single-row deep-groove ball bearing, d_i = 52.291 mm, d_o = 77.706 mm, d = 12.7 mm, n = 9,
-    # groove radii 6.604 mm, E = 200 GPa, nu = 0.3, eta_0 = 0.01 Pa s, xi = 2.2e-8 1/Pa,
-    # omega_i = 400 rad/s, w_z = 8900 N, heaviest ball 5 w_z / n (Stribeck). The reference
-    # follows the book's procedure: its R_x, R_y, u = (d_e^2 - d^2) omega_i / (4 d_e) and its
-    # ellipticity fit k = 1.0339 (R_y / R_x)^0.636 (the model uses the seed's alpha^(2/pi)).
-    # The book's printed results were not at hand: the reference is its procedure evaluated
-    # here (h_min 0.211 um inner, 0.252 um outer, Lambda 3.2 and 3.9 with its roughness).
+def test_film_follows_hamrocks_procedure_for_his_deep_groove_example():
+    # NOT a comparison with printed results. The inputs are those of the single-row deep-groove
+    # ball bearing example of Hamrock and Anderson, Rolling-element bearings (NASA RP-1105,
+    # 1983) and Hamrock, Fundamentals of Fluid Film Lubrication (NASA RP-1255 1991; McGraw-Hill
+    # 1994): d_i = 52.291 mm, d_o = 77.706 mm, d = 12.7 mm, n = 9, groove radii 6.604 mm,
+    # E = 200 GPa, nu = 0.3, omega_i = 400 rad/s, w_z = 8900 N, heaviest ball 5 w_z / n
+    # (Stribeck), eta_0 = 0.01 Pa s, xi = 2.2e-8 1/Pa. Those books' printed results (U, G, W,
+    # k, h_min per race, Lambda) could not be read: a search of stored copies of NASA TM-81691
+    # (Ball Bearing Mechanics, 1981: its chapter 3 only, loads, no film), RP-1105, RP-1255, Ball
+    # Bearing Lubrication (Wiley 1981), Hamrock-Schmid-Jacobson and Harris-Kotzalas found none of
+    # their worked-example pages. An independent transcription of the example's inputs (a
+    # thesis script citing Hamrock 1994) has the same geometry, E, load, speed and roughness
+    # (0.0625 / 0.0175 um rms) but eta_0 = 0.04 Pa s and xi = 2.3e-8 1/Pa: the oil here is not
+    # verified either. The reference is therefore the book's procedure evaluated below: its R_x,
+    # R_y, u = (d_e^2 - d^2) omega_i / (4 d_e), E' = 2 / ((1 - nu_a^2)/E_a + (1 - nu_b^2)/E_b)
+    # (= E / (1 - nu^2), the model's), the minimum-film formula and ellipticity fit as printed in
+    # Hamrock and Dowson's abstract, ASME J. Lubr. Technol. 99(2) (1977) 264 (H_min = 3.63
+    # U^0.68 G^0.49 W^-0.073 (1 - e^-0.68k), k = 1.03 (R_y / R_x)^0.64; the model uses the
+    # seed's alpha^(2/pi)), and the central film of Part III of the same series.
+    # Procedure: U 5.57e-11 / 3.75e-11, G 4835, W 8.62e-4 / 3.90e-4, k 9.52 / 7.39 (model 9.14 /
+    # 7.10), h_min 0.211 / 0.252 um, inner / outer; Lambda 3.2 / 3.9 with that roughness.
     d_i, d_o, d, r, n_balls = 52.291e-3, 77.706e-3, 12.7e-3, 6.604e-3, 9
     e_prime = 200e9 / (1 - 0.3**2)
     eta, xi, omega_i, load = 0.01, 2.2e-8, 400.0, 5 * 8900.0 / n_balls
@@ -74,7 +86,7 @@ def test_film_of_hamrocks_deep_groove_example():
     for sign in (-1, 1):  # inner, outer race
         rx = d * (d_e + sign * d) / (2 * d_e)
         ry = r * d / (2 * r - d)
-        k_book = 1.0339 * (ry / rx) ** 0.636
+        k_book = 1.03 * (ry / rx) ** 0.64
         big_u, big_g, big_w = eta * u_book / (e_prime * rx), xi * e_prime, load / (e_prime * rx**2)
         h_c = (
             rx
@@ -88,7 +100,7 @@ def test_film_of_hamrocks_deep_groove_example():
             rx * 3.63 * big_u**0.68 * big_g**0.49 * big_w**-0.073 * (1 - math.exp(-0.68 * k_book))
         )
         model_c, model_min = film_thickness_m(load, u_in, eta, xi, rx, ry / rx, e_prime)
-        # measured: within 0.05 %; the brief's tolerance 3 %
+        # measured: within 0.15 % (the two k fits); the acceptance tolerance 3 %
         assert model_c == pytest.approx(h_c, rel=0.03)
         assert model_min == pytest.approx(h_min, rel=0.03)
         assert 0.1e-6 < h_min < 0.5e-6  # the sub-micron films of the example
@@ -217,9 +229,12 @@ def test_full_film_bearing_capacitance_and_impedance():
     assert (balls.loc[loaded, "inner_regime"] == "full").all()
     assert (balls.loc[loaded, "inner_film_parameter"] > 3).all()
     c = signals["capacitance_f"].median()
-    # measured on deep-groove ball bearings of 20-40 mm bore in full film: of the order of
-    # 0.1-1 nF (Busse et al., IEEE Trans. Power Electron. 12 (1997); Magdun and Binder, IECON
-    # 2009; Schirra et al., Tribol. Int. 158 (2021)); measured here: 99 pF
+    # measured here: 99 pF. Not checked against a measured bearing: no measured full-film
+    # capacitance of a deep-groove ball bearing of this size, with its speed, load, oil and
+    # temperature, could be read and verified (searched: Busse et al. 1997, Magdun and Binder
+    # 2009, Jablonka et al. 2012/2018, Gemeinder et al. 2016, Schirra et al. 2021, Dai's review
+    # Lubricants 12 (2024) 329). The bounds are an order of magnitude around the Hertz-zone
+    # plates (47 pF here), not a published range.
     assert 50e-12 < c < 1e-9
     # a capacitor: phase -pi/2 within the film leakage, |Z| = 1 / (omega C)
     assert np.allclose(signals["impedance_phase_rad"], -math.pi / 2, atol=1e-3)
@@ -232,6 +247,37 @@ def test_full_film_bearing_capacitance_and_impedance():
     freq = np.fft.rfftfreq(x.size, 1.0 / result.scene.numerics.sample_rate_hz)
     f_bp = result.scene.bearing.ball_pass_frequency_hz(result.scene.operating.omega_rad_s)
     assert freq[spectrum.argmax()] == pytest.approx(f_bp, abs=freq[1])
+
+
+@pytest.mark.validation
+def test_capacitance_beyond_the_hertz_zones_against_the_measured_factor():
+    # Manjunath, Hausner, Heine, De Baets, Fauconnier, Lubricants 12(2) (2024) 51: the measured
+    # capacitance of EHL contacts is 3 to 11 times the Hertz-zone value, over speed, load and
+    # temperature, on a cylindrical roller thrust bearing (line contacts, not balls). The
+    # model's bearing over its Hertz plates alone (per loaded ball the inner and outer plate at
+    # h_c in series): measured 2.1 at the seed's scene, 3.8 at 2 kN, 1.6 at 12 kN - below that
+    # factor except at light load (README, Lubricated contacts, says why).
+    from signatelec.physics.conductance import bearing_contact_area
+
+    def ratio(radial_load_n):
+        result = simulate(qs_scene(radial_load_n=radial_load_n))
+        b, n = result.scene.bearing, len(result.signals)
+        eps_r = result.scene.lubricant.resolved().relative_permittivity
+        plate = {}
+        for race in ("inner", "outer"):
+            force = result.balls[f"{race}_force_n"].to_numpy().reshape(n, b.n_balls)
+            film = result.balls[f"{race}_film_m"].to_numpy().reshape(n, b.n_balls)
+            area = bearing_contact_area(force, b, race)
+            plate[race] = np.where(force > 0, hertz_zone_capacitance_f(area, film, eps_r), 0.0)
+        both = (plate["inner"] > 0) & (plate["outer"] > 0)
+        series = np.where(both, plate["inner"] * plate["outer"], 0.0) / np.where(
+            both, plate["inner"] + plate["outer"], 1.0
+        )
+        return np.median(result.signals["capacitance_f"].to_numpy() / series.sum(axis=1))
+
+    seed, light, heavy = ratio(5820.0), ratio(2000.0), ratio(12000.0)
+    assert 1.8 < seed < 2.4 and 3.3 < light < 4.3 and 1.4 < heavy < 1.9
+    assert light > seed > heavy  # the outside zone weighs more as the Hertz zones shrink
 
 
 def test_dem_and_quasistatic_tier_read_the_same_capacitance():

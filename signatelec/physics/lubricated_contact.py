@@ -37,8 +37,11 @@ radially loaded deep-groove ball bearing*, Tribol. Int. 119 (2018) 239-249 (the 
 the outside zone; the outside zone dominates).
 T. Schirra, G. Martin, S. Puchtler, E. Kirchner, *Electric impedance of rolling bearings:
 consideration of unloaded rolling elements*, Tribol. Int. 158 (2021) 106927; Y. Gemeinder et al.,
-bearing impedance model for ball bearings, ICEM 2016; A. Manjunath et al., Lubricants (2024):
-the bearing as a network of contact impedances.
+bearing impedance model for ball bearings, ICEM 2016 (the bearing as a network of contact
+impedances). M. Manjunath, S. Hausner, A. Heine, P. De Baets, D. Fauconnier, *Electrical
+impedance spectroscopy for precise film thickness assessment in line contacts*, Lubricants 12(2)
+(2024) 51: on a cylindrical roller thrust bearing the measured EHL capacitance is 3 to 11 times
+the Hertz-zone value.
 """
 
 from __future__ import annotations
