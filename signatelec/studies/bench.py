@@ -116,3 +116,43 @@ def format_table(report: dict) -> str:
             f"{rel:>5s} {r['run_s']:7.3f} {r['compile_s']:9.2f} {elec:>12s}"
         )
     return "\n".join(lines)
+
+
+def tier_marginal_cost(repeat: int = 3, sample_rate_hz: float = 20000.0) -> dict:
+    """Marginal CPU per simulated second of the DEM and of the quasi-static tier on the seed's
+    scene, in this process, interleaved: each engine run at two durations (the DEM 5 and 25 ms of
+    steady running, the tier 2 and 6 s, whose instants map onto one ball-pass period), the CPU
+    difference over the duration difference; the median of ``repeat`` pairs. Kernels are compiled
+    or loaded by a first run of each, outside the figures."""
+    import time
+
+    from signatelec.engines.simulate import simulate
+
+    seed = Scene().with_overrides(sample_rate_hz=sample_rate_hz)
+    setup = seed.setup_time_s
+    quasistatic = seed.with_overrides(fidelity="quasistatic")
+    spans = {
+        "dem": (seed, setup + 0.005, setup + 0.025),
+        "quasistatic": (quasistatic, setup + 2.0, setup + 6.0),
+    }
+
+    def cpu_s(scene: Scene, duration_s: float) -> float:
+        scene = scene.with_overrides(duration_s=duration_s)
+        start = time.process_time()
+        simulate(scene)
+        return time.process_time() - start
+
+    for scene, short, _ in spans.values():
+        cpu_s(scene, short)  # compile or load, outside the figures
+    marginal: dict[str, list[float]] = {name: [] for name in spans}
+    for _ in range(max(1, repeat)):
+        for name, (scene, short, long) in spans.items():
+            marginal[name].append((cpu_s(scene, long) - cpu_s(scene, short)) / (long - short))
+    median = {name: sorted(v)[len(v) // 2] for name, v in marginal.items()}
+    return {
+        "sample_rate_hz": sample_rate_hz,
+        "dem_cpu_s_per_simulated_s": median["dem"],
+        "quasistatic_cpu_s_per_simulated_s": median["quasistatic"],
+        "ratio": median["dem"] / median["quasistatic"],
+        "runs": marginal,
+    }
