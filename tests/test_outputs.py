@@ -34,8 +34,6 @@ from signatelec.cli import EXIT_CODES
 from signatelec.config.scene import Scene, SceneError
 from signatelec.data import read_dataset
 from signatelec.engines.budget import (
-    DISK_BYTES_PER_BALL_INSTANT,
-    DISK_BYTES_PER_INSTANT,
     MAX_STEPS,
     available_memory_bytes,
     check_run,
@@ -370,15 +368,11 @@ def test_recorded_instants_and_memory_are_checked_before_the_run(tmp_path):
     if available is None or available > need:
         pytest.skip("this machine has the memory for 5e7 recorded instants")
     scene.write_text("[numerics]\nsample_rate_hz = 5e6\nduration_s = 10.0\n")
-    # held in memory (signatelec.simulate without out_dir): the whole run's tables
-    with pytest.raises(SceneError, match=r"5e\+07 recorded instants need .* available"):
+    # held in memory (signatelec.simulate without out_dir): the whole run's tables; the command
+    # line streams them to its output, one block in memory (tests/test_streaming.py)
+    with pytest.raises(SceneError, match=r"5e\+07 recorded instants need .* available") as info:
         check_run(Scene.from_toml(scene))
-    # the command line streams them: one block in memory, the files on the disk
-    disk = 5e7 * (13 * DISK_BYTES_PER_BALL_INSTANT + DISK_BYTES_PER_INSTANT)
-    if shutil.disk_usage(tmp_path).free > disk:
-        pytest.skip("this disk has the room for the tables of 5e7 recorded instants")
-    proc = cli("simulate", "--scene", str(scene), "--out", str(tmp_path / "run"))
-    assert_one_line(proc, 2, "5e+07 recorded instants need", "available", "numerics.duration_s")
+    assert "numerics.duration_s" in str(info.value)
     assert not (tmp_path / "run").exists()
 
 

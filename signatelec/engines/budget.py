@@ -30,10 +30,6 @@ MAX_RECORDED_INSTANTS = 100_000_000
 #: 2e5-9e5 instants: 3.6-5.3 kB per instant, DEM the larger) and rounded up.
 BYTES_PER_BALL_INSTANT = 420
 BYTES_PER_INSTANT = 256
-#: Disk taken by the tables of one recorded instant, per ball and per instant (Parquet, snappy:
-#: doubles hardly compress). Measured on the seed scene: 1.53 kB per instant, rounded up.
-DISK_BYTES_PER_BALL_INSTANT = 130
-DISK_BYTES_PER_INSTANT = 160
 #: Time one step takes, for the step limit's message (the kernel's, seed scene).
 SECONDS_PER_STEP = 0.5e-6
 
@@ -46,7 +42,6 @@ class RunBudget:
     n_instants: int
     n_steady_instants: int
     memory_bytes: int
-    disk_bytes: int = 0  # the tables' files, when streamed to a directory
 
 
 def format_bytes(n_bytes: float) -> str:
@@ -109,18 +104,15 @@ def run_budget(scene: Scene, *, streamed: bool = False) -> RunBudget:
         n_instants=instants,
         n_steady_instants=steady,
         memory_bytes=held * instant_bytes(scene.bearing.n_balls),
-        disk_bytes=instants
-        * (DISK_BYTES_PER_BALL_INSTANT * scene.bearing.n_balls + DISK_BYTES_PER_INSTANT)
-        if streamed
-        else 0,
     )
 
 
 def check_run(scene: Scene, *, concurrent: int = 1, out_dir: str | Path | None = None) -> RunBudget:
     """The scene's :class:`RunBudget`, or ``SceneError`` when the run cannot or should not start
     (see the module docstring); ``concurrent``: runs that will share the machine's memory;
-    ``out_dir``: the run streams its tables there (:func:`run_budget`), whose file system must
-    hold them."""
+    ``out_dir``: the run streams its tables there (:func:`run_budget`): one block in memory. A
+    disk that fills during the run stops it with nothing written (exit code 75 at the command
+    line), as any failed write."""
     streamed = out_dir is not None
     check = Checker(SceneError)
     nu = scene.numerics
@@ -160,32 +152,7 @@ def check_run(scene: Scene, *, concurrent: int = 1, out_dir: str | Path | None =
             f"{format_bytes(available)} available; lower numerics.sample_rate_hz or "
             "numerics.duration_s",
         )
-    if streamed:
-        _check_disk(check, scene, budget, Path(out_dir))
     return budget
-
-
-def _check_disk(check: Checker, scene: Scene, budget: RunBudget, out_dir: Path) -> None:
-    """The tables of a streamed run must fit the free space where they are written."""
-    import shutil
-
-    probe = Path(os.path.abspath(out_dir))
-    while not probe.is_dir() and probe != probe.parent:
-        probe = probe.parent
-    try:
-        free = shutil.disk_usage(probe).free
-    except OSError:
-        return
-    if budget.disk_bytes > free:
-        nu = scene.numerics
-        check.fail(
-            "numerics.duration_s",
-            nu.duration_s,
-            f"at sample_rate_hz = {nu.sample_rate_hz:g} Hz: {budget.n_instants:.3g} recorded "
-            f"instants need ~{format_bytes(budget.disk_bytes)} of tables, more than the "
-            f"{format_bytes(free)} available in {str(probe)!r}; lower numerics.sample_rate_hz or "
-            "numerics.duration_s",
-        )
 
 
 def _check_steps(check: Checker, scene: Scene) -> None:

@@ -43,9 +43,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import csgraph
-from scipy.sparse.linalg import spsolve
 
 from signatelec.config.bearing import Bearing
 from signatelec.physics.conductance import ball_conductance, bearing_contact_area
@@ -71,6 +68,10 @@ def _solve_kirchhoff(n_nodes, node_a, node_b, conductance_s, source, sink, curre
     NaN. Returns ``(potential_v (n_nodes,), resistance_ohm (n_blocks,))`` with inf where the source
     and the sink are not connected.
     """
+    from scipy import sparse  # here: only ball/ball contacts need it
+    from scipy.sparse import csgraph
+    from scipy.sparse.linalg import spsolve
+
     keep = conductance_s > 0.0
     a, b, c = node_a[keep], node_b[keep], conductance_s[keep]
     graph = sparse.coo_array((c, (a, b)), shape=(n_nodes, n_nodes))

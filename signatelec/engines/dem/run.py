@@ -309,6 +309,20 @@ class _BlockElectrics:
         timings["electrical_us_per_instant"] = 1e6 * self.seconds / max(n_instants, 1)
 
 
+def process_age_s() -> float | None:
+    """Seconds since this process started (Linux /proc, 10 ms resolution), else None."""
+    import os
+
+    try:
+        with open("/proc/self/stat", "rb") as fh:
+            start_ticks = int(fh.read().rsplit(b")", 1)[1].split()[19])
+        with open("/proc/uptime", "rb") as fh:
+            uptime_s = float(fh.read().split()[0])
+        return max(uptime_s - start_ticks / os.sysconf("SC_CLK_TCK"), 0.0)
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def _block_tables(scene: Scene, n_rec: int, rec, electrics: _BlockElectrics | None):
     """The tables of the ``n_rec`` instants held in ``rec``, electrical columns included."""
     balls, signals = _raw_tables(scene, n_rec, rec)
@@ -357,6 +371,7 @@ def simulate_dem(
     compile_s = time.perf_counter() - t0
 
     electrics = _BlockElectrics(scene) if scene.outputs.electrical else None
+    first_step_s = process_age_s()  # start-up: interpreter, imports, kernel load, scene
     chunk = max(every, (n_steps // 200) // every * every)
     bar = None
     if progress:
@@ -406,6 +421,7 @@ def simulate_dem(
         "duration_s": scene.numerics.duration_s,
         "stability_limit_s": limit.dt_limit_s,
         "chosen": sorted(scene.auto),
+        "process_to_first_step_s": first_step_s,
     }
     if electrics is not None:
         electrics.finish(timings, n_total)

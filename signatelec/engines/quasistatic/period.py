@@ -71,26 +71,32 @@ def use_period_map(scene: Scene, n_instants: int) -> bool:
     return ball_pass_periodic(scene) and n_instants >= MIN_INSTANTS
 
 
+def ball_angles_rad(cage_angle_rad, n_balls: int) -> np.ndarray:
+    """Angles (T, Z) of evenly spaced balls, ball 0 at ``cage_angle_rad`` (T,), from -y
+    counter-clockwise, in (-pi, pi]."""
+    psi = np.asarray(cage_angle_rad)[:, None] + 2.0 * math.pi * np.arange(n_balls) / n_balls
+    return math.pi - np.remainder(math.pi - psi, 2.0 * math.pi)
+
+
 class PeriodMap:
     """One ball-pass period of ``scene``'s quasi-static state, solved on a grid, and the map of
-    recorded instants onto it (see the module docstring)."""
+    recorded instants onto it (see the module docstring).
 
-    def __init__(self, scene: Scene):
-        from signatelec.engines.quasistatic.tier import instant_columns
+    ``solve(scene, t, psi)`` gives the tables' columns of the state at ball angles ``psi`` (T, Z)
+    solved instant by instant (:func:`signatelec.engines.quasistatic.tier.instant_columns`);
+    ``cage_angle_rad(scene, t)`` the angle of ball 0 at the instants ``t``.
+    """
 
+    def __init__(self, scene: Scene, solve, cage_angle_rad):
         self.scene = scene
+        self.solve, self.cage_angle_rad = solve, cage_angle_rad
         z = scene.bearing.n_balls
         self.period_rad = 2.0 * math.pi / z
         self.theta_ref_rad = scene.operating.initial_ball_angle_rad
         n, w = PERIOD_NODES, SMOOTH_MARGIN
         fraction = np.arange(-w, n + w + 1) / n
-        psi = (
-            self.theta_ref_rad
-            + fraction[:, None] * self.period_rad
-            + 2.0 * math.pi * np.arange(z) / z
-        )
-        psi = math.pi - np.remainder(math.pi - psi, 2.0 * math.pi)
-        balls, signals, self.spent = instant_columns(scene, np.zeros(fraction.size), psi)
+        psi = ball_angles_rad(self.theta_ref_rad + fraction * self.period_rad, z)
+        balls, signals, self.spent = solve(scene, np.zeros(fraction.size), psi)
         self.ball_order, self.signal_order = list(balls), list(signals)
         shape = (fraction.size, z)
         self.ball_constants, self.signal_constants = {}, {}
@@ -98,7 +104,7 @@ class PeriodMap:
         for name, values in balls.items():
             if name in ("time_s", "ball", "angle_rad"):
                 continue
-            if _constant(values):
+            if _constant(values) and name != "inner_force_n":  # the kernel reads that one
                 self.ball_constants[name] = values[0]
             else:
                 mapped_b.append((name, values.reshape(shape)))
@@ -122,7 +128,9 @@ class PeriodMap:
         self.signal_names = [name for name, _ in mapped_s]
         # [node, slot, column]: an instant reads two nodes' values in one contiguous stretch
         self.grid_ball = np.ascontiguousarray(np.stack([v for _, v in mapped_b], axis=-1))
-        self.grid_signal = np.ascontiguousarray(np.stack([v for _, v in mapped_s], axis=-1))
+        self.grid_signal = np.zeros((fraction.size, len(mapped_s)))
+        for c, (_, values) in enumerate(mapped_s):
+            self.grid_signal[:, c] = values
         # the contact pattern (and where a value is missing) at each node; an interval is
         # smooth when it holds within SMOOTH_MARGIN intervals on either side
         pattern = np.concatenate(
@@ -154,11 +162,9 @@ class PeriodMap:
         }
 
     def _map(self, t: np.ndarray):
-        from signatelec.engines.quasistatic.tier import kinematic_cage_angle_rad
-
         z = self.scene.bearing.n_balls
         n_rec = t.size
-        theta = kinematic_cage_angle_rad(self.scene, t)
+        theta = self.cage_angle_rad(self.scene, t)
         # one row per ball and instant: an instant's values are written in one stretch
         out_ball = np.empty((n_rec * z, len(self.ball_names)))
         out_signal = np.empty((n_rec, len(self.signal_names)))
@@ -188,8 +194,6 @@ class PeriodMap:
     def columns(self, t) -> tuple[dict, dict, dict]:
         """The tables' columns at the instants ``t`` (as
         :func:`~signatelec.engines.quasistatic.tier.instant_columns`) and the time spent."""
-        from signatelec.engines.quasistatic.tier import instant_columns, kinematic_ball_angles_rad
-
         t0 = time.perf_counter()
         t = np.asarray(t, dtype=float)
         z = self.scene.bearing.n_balls
@@ -222,7 +226,7 @@ class PeriodMap:
                 codes = np.full(n_rec, PHASES.index("steady"))
                 signals[name] = pd.Categorical.from_codes(codes, PHASES)
             elif name == "delta_r_m":
-                signals[name] = np.hypot(mapped_s["inner_x_m"], mapped_s["inner_y_m"])
+                signals[name] = np.hypot(signals["inner_x_m"], signals["inner_y_m"])
             elif name == "epsilon":
                 clearance = self.scene.operating.clearance_m
                 signals[name] = epsilon_from_shift(signals["delta_r_m"], clearance)
@@ -236,9 +240,8 @@ class PeriodMap:
         rough = np.flatnonzero(self.rough[node])
         if rough.size:
             # near a contact that opens or closes: the tier's own per-instant solution
-            exact_b, exact_s, exact_spent = instant_columns(
-                self.scene, t[rough], kinematic_ball_angles_rad(self.scene, t[rough])
-            )
+            psi = ball_angles_rad(self.cage_angle_rad(self.scene, t[rough]), z)
+            exact_b, exact_s, exact_spent = self.solve(self.scene, t[rough], psi)
             rows = (rough[:, None] * z + np.arange(z)).ravel()
             for name, values in exact_b.items():
                 balls[name][rows] = values

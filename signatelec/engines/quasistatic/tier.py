@@ -68,6 +68,7 @@ import pandas as pd
 
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.scene import Scene
+from signatelec.engines.quasistatic.period import PeriodMap, ball_angles_rad, use_period_map
 from signatelec.engines.results import PHASES, SimulationResult, phase_times
 from signatelec.physics.contact import NORMAL_LAWS
 from signatelec.physics.laws import scene_law
@@ -109,9 +110,7 @@ def kinematic_cage_angle_rad(scene: Scene, time_s) -> np.ndarray:
 
 def kinematic_ball_angles_rad(scene: Scene, time_s) -> np.ndarray:
     """Angles (T, Z) of the balls rolling without slip, from -y counter-clockwise, in (-pi, pi]."""
-    z = scene.bearing.n_balls
-    psi = kinematic_cage_angle_rad(scene, time_s)[:, None] + 2.0 * math.pi * np.arange(z) / z
-    return math.pi - np.remainder(math.pi - psi, 2.0 * math.pi)
+    return ball_angles_rad(kinematic_cage_angle_rad(scene, time_s), scene.bearing.n_balls)
 
 
 def steady_record_times_s(scene: Scene) -> np.ndarray:
@@ -251,7 +250,6 @@ def simulate_quasistatic(
     (:class:`~signatelec.engines.stream.TableStream`) the tables go to it in blocks of
     :data:`~signatelec.engines.stream.STREAM_BLOCK_INSTANTS` instants.
     """
-    from signatelec.engines.quasistatic.period import PeriodMap, use_period_map
     from signatelec.engines.stream import STREAM_BLOCK_INSTANTS
 
     del progress
@@ -271,7 +269,7 @@ def simulate_quasistatic(
     mapper = None
     if use_period_map(scene, n_rec):
         t0 = time.perf_counter()
-        mapper = PeriodMap(scene)
+        mapper = PeriodMap(scene, instant_columns, kinematic_cage_angle_rad)
         compile_s += mapper.compile_s
         spent["period_grid_s"] = time.perf_counter() - t0 - mapper.compile_s
     size = n_rec if stream is None else STREAM_BLOCK_INSTANTS
