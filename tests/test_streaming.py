@@ -123,7 +123,7 @@ def test_a_streamed_run_holds_one_block_whatever_its_duration():
 # --- the quasi-static tier over one ball-pass period ---------------------------------------------
 
 #: Each column's largest error relative to its largest magnitude (requirement: 1e-6; measured
-#: over these scenes: 6e-8 to 3e-7).
+#: over these scenes: 4e-8 to 2.4e-7).
 MAP_RTOL = 1e-6
 
 
