@@ -91,13 +91,18 @@ def cache_dir(name: str) -> Path:
         return _FALLBACK[wanted]
 
 
+def schema_with_metadata(schema: pa.Schema, metadata: dict) -> pa.Schema:
+    """``schema`` with the signatelec metadata (the version and ``metadata``) under its key."""
+    meta = dict(schema.metadata or {})
+    meta[METADATA_KEY] = json.dumps({"version": __version__, **metadata}).encode()
+    return schema.with_metadata(meta)
+
+
 def table_with_metadata(df: pd.DataFrame, metadata: dict) -> pa.Table:
     import pyarrow as pa
 
     table = pa.Table.from_pandas(df, preserve_index=False)
-    meta = dict(table.schema.metadata or {})
-    meta[METADATA_KEY] = json.dumps({"version": __version__, **metadata}).encode()
-    return table.replace_schema_metadata(meta)
+    return table.replace_schema_metadata(schema_with_metadata(table.schema, metadata).metadata)
 
 
 def read_metadata(path: str | Path) -> dict:

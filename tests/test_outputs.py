@@ -31,10 +31,12 @@ from cli_run import (
 
 from signatelec import io
 from signatelec.cli import EXIT_CODES
+from signatelec.config.scene import Scene, SceneError
 from signatelec.data import read_dataset
 from signatelec.engines.budget import (
     MAX_STEPS,
     available_memory_bytes,
+    check_run,
     instant_bytes,
 )
 
@@ -130,15 +132,17 @@ def test_a_failed_write_keeps_the_previous_output(tmp_path, monkeypatch, capsys)
     out = tmp_path / "run"
     assert run_main([*QUICK, "--out", str(out)]) == 0
     before = snapshot(out)
-    write_table = pq.write_table
 
-    def disk_full_at_signals(table, where, **kwargs):
-        if str(where).endswith("signals.parquet"):
-            Path(where).write_bytes(b"PAR1 half")
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(where))
-        return write_table(table, where, **kwargs)
+    class DiskFullAtSignals(pq.ParquetWriter):
+        """The tables are written as the run goes: the disk fills at the first signals block."""
 
-    monkeypatch.setattr(pq, "write_table", disk_full_at_signals)
+        def write_table(self, table, *args, **kwargs):
+            if str(self.where).endswith("signals.parquet"):
+                Path(self.where).write_bytes(b"PAR1 half")
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.where))
+            return super().write_table(table, *args, **kwargs)
+
+    monkeypatch.setattr(pq, "ParquetWriter", DiskFullAtSignals)
     capsys.readouterr()
     code = run_main([*QUICK, "--radial-load", "2910", "--out", str(out)])
     err = capsys.readouterr().err.splitlines()
@@ -364,8 +368,11 @@ def test_recorded_instants_and_memory_are_checked_before_the_run(tmp_path):
     if available is None or available > need:
         pytest.skip("this machine has the memory for 5e7 recorded instants")
     scene.write_text("[numerics]\nsample_rate_hz = 5e6\nduration_s = 10.0\n")
-    proc = cli("simulate", "--scene", str(scene), "--out", str(tmp_path / "run"))
-    assert_one_line(proc, 2, "5e+07 recorded instants need", "available", "numerics.duration_s")
+    # held in memory (signatelec.simulate without out_dir): the whole run's tables; the command
+    # line streams them to its output, one block in memory (tests/test_streaming.py)
+    with pytest.raises(SceneError, match=r"5e\+07 recorded instants need .* available") as info:
+        check_run(Scene.from_toml(scene))
+    assert "numerics.duration_s" in str(info.value)
     assert not (tmp_path / "run").exists()
 
 

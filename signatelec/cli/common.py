@@ -88,6 +88,7 @@ OVERRIDE_OPTIONS = {
     "omega_rad_s": "--omega",
     "duration_s": "--duration",
     "dt_s": "--dt",
+    "sample_rate_hz": "--sample-rate",
 }
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -13,8 +14,6 @@ from signatelec.cli.common import (
     EXIT_DIVERGED,
     InputError,
     Stopped,
-    _stop_code,
-    _stop_word,
     check_writable_file,
     claim_output,
     cli,
@@ -34,6 +33,9 @@ from signatelec.io import write_bytes_atomic
 @click.option("--omega", "omega_rad_s", type=float, help="Inner-ring speed, rad/s.")
 @click.option("--duration", "duration_s", type=float, help="Simulated time, s.")
 @click.option("--dt", "dt_s", type=float, help="Time step, s.")
+@click.option(
+    "--sample-rate", "sample_rate_hz", type=float, help="Recorded instants per second, Hz."
+)
 @click.option(
     "--fidelity",
     type=click.Choice(FIDELITY_NAMES),
@@ -57,6 +59,7 @@ def simulate(
     omega_rad_s,
     duration_s,
     dt_s,
+    sample_rate_hz,
     fidelity,
     designation,
     out,
@@ -64,7 +67,9 @@ def simulate(
 ):
     """Simulate a scene; write DIR/balls.parquet and DIR/signals.parquet.
 
-    The time step, spin-up and duration not given are chosen for the scene (dt within its
+    The tables are written as the run goes, a block of recorded instants at a time (memory
+    bounded whatever the duration); DIR appears, or is replaced, when the run completes. The time
+    step, spin-up and duration not given are chosen for the scene (dt within its
     stability limit, at most 1e-7 s; a spin-up gentle enough for its speed, cage and clearance;
     a few ball passes of steady running); the summary says what was chosen.
     """
@@ -77,6 +82,7 @@ def simulate(
         "omega_rad_s": omega_rad_s,
         "duration_s": duration_s,
         "dt_s": dt_s,
+        "sample_rate_hz": sample_rate_hz,
     }
     scene = load_scene(scene_file, **overrides)
     if designation is not None:
@@ -101,23 +107,24 @@ def simulate(
     from signatelec.io import is_simulate_output
 
     try:
-        check_run(scene)  # steps, recorded instants, memory: before anything is written
+        # steps, recorded instants, memory, disk: before anything is written
+        check_run(scene, out_dir=out)
     except SceneError as exc:
         raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
     claim_output(out, "simulate", previous=is_simulate_output)
+    results = []
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            result = run(scene, progress=not quiet)
+            # the tables go to a temporary directory beside DIR as the run goes
+            write_output(lambda: results.append(run(scene, progress=not quiet, out_dir=out)))
         for w in caught:
             click.echo(f"signatelec: warning: {w.message}", err=True)
     except SceneError as exc:
         raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
     except DivergenceError as exc:
         raise Stopped(f"{exc}; nothing written", EXIT_DIVERGED) from None
-    except KeyboardInterrupt as exc:
-        raise Stopped(f"{_stop_word(exc)}; nothing written", _stop_code(exc)) from None
-    write_output(lambda: result.write(out))
+    result = results[0]
     if not quiet:
         click.echo(summary(result, out))
 
@@ -170,7 +177,7 @@ def summary(result, out: str | None = None) -> str:
     """A readable summary of a run: timings and steady-state figures."""
     sc = result.scene
     t = result.timings
-    st = result.steady()
+    st = result.steady_means()
     b = sc.bearing
     lines = [
         f"scene: F_r = {sc.operating.radial_load_n:g} N, clearance = "
@@ -184,29 +191,24 @@ def summary(result, out: str | None = None) -> str:
         else f"run: quasi-static tier, {t['n_instants']} steady instants in "
         f"{t['total_s'] * 1e3:.2f} ms, compile/load {t['compile_s']:.2f} s",
     ]
-    if len(st):
+    if st and not math.isnan(st["time_s"]):
         kin = b.cage_speed_rad_s(sc.operating.omega_rad_s)
         lines.append(
-            f"steady state: delta_r = {st.delta_r_m.mean() * 1e6:.2f} um, epsilon = "
-            f"{st.epsilon.mean():.3f}, max ball load = {st.max_ball_load_n.mean():.1f} N, "
-            f"loaded balls = {st.loaded_balls.mean():.2f}, cage speed = "
-            f"{st.cage_speed_rad_s.mean():.2f} rad/s (kinematic {kin:.2f})"
+            f"steady state: delta_r = {st['delta_r_m'] * 1e6:.2f} um, epsilon = "
+            f"{st['epsilon']:.3f}, max ball load = {st['max_ball_load_n']:.1f} N, "
+            f"loaded balls = {st['loaded_balls']:.2f}, cage speed = "
+            f"{st['cage_speed_rad_s']:.2f} rad/s (kinematic {kin:.2f})"
         )
         if "impedance_ohm" in st:
-            balls = result.steady("balls")
-            lam = min(
-                balls.loc[balls[f"{race}_force_n"] > 0, f"{race}_film_parameter"].min()
-                for race in ("inner", "outer")
-            )
             lines.append(
                 f"lubricated ({sc.lubricant.oil} at {sc.lubricant.temperature_c:g} C): smallest "
-                f"film parameter {lam:.3g}, DC resistance {st.resistance_ohm.mean():.4g} Ohm, at "
-                f"{sc.operating.measurement_frequency_hz:g} Hz |Z| = {st.impedance_ohm.mean():.4g}"
-                f" Ohm, phase {st.impedance_phase_rad.mean():.3f} rad, C = "
-                f"{st.capacitance_f.mean() * 1e12:.1f} pF"
+                f"film parameter {st['film_parameter_min']:.3g} (steady mean), DC resistance "
+                f"{st['resistance_ohm']:.4g} Ohm, at {sc.operating.measurement_frequency_hz:g} Hz "
+                f"|Z| = {st['impedance_ohm']:.4g} Ohm, phase {st['impedance_phase_rad']:.3f} rad, "
+                f"C = {st['capacitance_f'] * 1e12:.1f} pF"
             )
         elif "resistance_ohm" in st:
-            lines.append(f"resistance: mean {st.resistance_ohm.mean() * 1e3:.4f} mOhm")
+            lines.append(f"resistance: mean {st['resistance_ohm'] * 1e3:.4f} mOhm")
     if out:
         lines.append(f"wrote {out}/balls.parquet, {out}/signals.parquet")
     return "\n".join(lines)
@@ -242,11 +244,31 @@ def summary(result, out: str | None = None) -> str:
     help="Run only this case (repeatable): seed, cage=none, contact_law=linear, minimal, ... "
     "(default: every case).",
 )
-def bench(out, duration_s, fresh_cache, cases):
+@click.option(
+    "--tiers",
+    is_flag=True,
+    help="Instead of the cases: the marginal CPU per simulated second of the DEM and of the "
+    "quasi-static tier (seed scene, same process, best of 5 interleaved pairs).",
+)
+def bench(out, duration_s, fresh_cache, cases, tiers):
     """Cost of the seed scene and of each scene option (us per step, compile apart)."""
     from signatelec.studies.bench import format_table, run_bench, select_cases
 
     check_writable_file(out, suffixes=(".json",))
+    if tiers:
+        from signatelec.studies.bench import tier_marginal_cost
+
+        report = tier_marginal_cost()
+        click.echo(
+            f"CPU s per simulated s at {report['sample_rate_hz']:g} Hz: DEM "
+            f"{report['dem_cpu_s_per_simulated_s']:.4g}, quasi-static tier "
+            f"{report['quasistatic_cpu_s_per_simulated_s']:.4g}; ratio {report['ratio']:.0f} "
+            f"(best of 5 pairs; of the medians {report['median_ratio']:.0f}; user CPU only "
+            f"{report['user_ratio']:.0f})"
+        )
+        write_bytes_atomic(out, json.dumps(report, indent=2).encode("utf-8"))
+        click.echo(f"wrote {out}")
+        return
     try:
         select_cases(cases)
         report = run_bench(duration_s=duration_s, fresh_cache=fresh_cache, cases=cases)

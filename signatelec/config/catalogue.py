@@ -52,11 +52,13 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 from numbers import Integral, Real
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from signatelec.config.bearing import STEEL, Bearing, BearingError, Material
 from signatelec.physics.kinematics import characteristic_orders
+
+if TYPE_CHECKING:  # imported where the table is made: a scene needs no pandas
+    import pandas as pd
 
 INCH_M = 25.4e-3
 #: Share of the gap between neighbouring balls that a cage ball fills: the seed's 99.5 % (module
@@ -407,4 +409,6 @@ def list_bearings(contact_angle_rad: float = 0.0) -> pd.DataFrame:
         orders = characteristic_orders(bearing, contact_angle_rad)
         row.update({f"{k}_order": v for k, v in orders.items()})
         rows.append(row)
+    import pandas as pd
+
     return pd.DataFrame(rows).set_index("designation")

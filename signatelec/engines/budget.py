@@ -18,6 +18,7 @@ from pathlib import Path
 from signatelec.config.constraints import DT_MIN_S, Checker
 from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.results import phase_times
+from signatelec.engines.stream import STREAM_BLOCK_INSTANTS
 
 #: Most time steps one DEM run may take: the default dt (1e-7 s) over the longest duration
 #: (100 s); about 8 minutes at the kernel's 0.5 us per step.
@@ -82,9 +83,10 @@ def available_memory_bytes() -> int | None:
     return available
 
 
-def run_budget(scene: Scene) -> RunBudget:
+def run_budget(scene: Scene, *, streamed: bool = False) -> RunBudget:
     """Steps, recorded instants (the quasi-static tier records the steady ones only) and peak
-    memory of ``scene``'s run."""
+    memory of ``scene``'s run; ``streamed``: its tables go to files block by block
+    (:mod:`signatelec.engines.stream`), so one block is in memory at a time."""
     nu = scene.numerics
     every = scene.record_every
     dem = nu.fidelity != "quasistatic"
@@ -96,23 +98,28 @@ def run_budget(scene: Scene) -> RunBudget:
     last = n_rec * period
     steady = 0 if last <= setup_end else n_rec - min(n_rec, math.floor(setup_end / period))
     instants = n_rec if dem else steady
+    held = min(instants, STREAM_BLOCK_INSTANTS) if streamed else instants
     return RunBudget(
         n_steps=n_steps if dem else 0,
         n_instants=instants,
         n_steady_instants=steady,
-        memory_bytes=instants * instant_bytes(scene.bearing.n_balls),
+        memory_bytes=held * instant_bytes(scene.bearing.n_balls),
     )
 
 
-def check_run(scene: Scene, *, concurrent: int = 1) -> RunBudget:
+def check_run(scene: Scene, *, concurrent: int = 1, out_dir: str | Path | None = None) -> RunBudget:
     """The scene's :class:`RunBudget`, or ``SceneError`` when the run cannot or should not start
-    (see the module docstring); ``concurrent``: runs that will share the machine's memory."""
+    (see the module docstring); ``concurrent``: runs that will share the machine's memory;
+    ``out_dir``: the run streams its tables there (:func:`run_budget`): one block in memory. A
+    disk that fills during the run stops it with nothing written (exit code 75 at the command
+    line), as any failed write."""
+    streamed = out_dir is not None
     check = Checker(SceneError)
     nu = scene.numerics
     dem = nu.fidelity != "quasistatic"
     if dem:
         _check_steps(check, scene)
-    budget = run_budget(scene)
+    budget = run_budget(scene, streamed=streamed)
     period = scene.record_every * nu.dt_s
     setup_end = phase_times(scene)[2]
     if budget.n_steady_instants == 0:

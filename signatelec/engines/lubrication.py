@@ -131,28 +131,40 @@ def contact_state(scene: Scene, balls: pd.DataFrame, signals: pd.DataFrame) -> C
 
 
 def add_lubrication(result: SimulationResult) -> None:
-    """Add the lubricated bearing's columns to ``result`` (see the module docstring)."""
-    scene = result.scene
-    state = contact_state(scene, result.balls, result.signals)
+    """Add the lubricated bearing's columns to ``result``'s tables (see the module docstring)."""
+    lubricate_tables(result.scene, result.balls, result.signals)
+
+
+def lubricate_tables(scene: Scene, balls: pd.DataFrame, signals: pd.DataFrame) -> None:
+    """Add the lubricated bearing's columns to ``balls`` and ``signals`` (in place): the whole
+    run's tables, or one streamed block of them (:class:`signatelec.engines.stream.TableStream`).
+
+    ``signals`` also gains ``film_parameter_min``, the smallest Lambda of the loaded contacts at
+    each instant (NaN when none is loaded): the bearing's regime at a glance.
+    """
+    state = contact_state(scene, balls, signals)
     frequency = scene.operating.measurement_frequency_hz
     impedance = bearing_impedance_ohm(state.ball_impedance(frequency))
     dc = bearing_impedance_ohm(state.ball_impedance(0.0)).real
     with np.errstate(divide="ignore", invalid="ignore"):
         admittance = np.where(np.isfinite(impedance), 1.0 / impedance, 0.0)
-    result.signals["resistance_ohm"] = dc
-    result.signals["capacitance_f"] = admittance.imag / (2.0 * np.pi * frequency)
-    result.signals["impedance_ohm"] = np.abs(impedance)
-    result.signals["impedance_phase_rad"] = np.where(
-        np.isfinite(impedance), np.angle(impedance), 0.0
-    )
+    signals["resistance_ohm"] = dc
+    signals["capacitance_f"] = admittance.imag / (2.0 * np.pi * frequency)
+    signals["impedance_ohm"] = np.abs(impedance)
+    signals["impedance_phase_rad"] = np.where(np.isfinite(impedance), np.angle(impedance), 0.0)
+    loaded_lambda = []
     for race in ("inner", "outer"):
-        result.balls[f"{race}_film_m"] = state.film_m[race].ravel()
+        balls[f"{race}_film_m"] = state.film_m[race].ravel()
     for race in ("inner", "outer"):
-        result.balls[f"{race}_film_parameter"] = state.film_parameter[race].ravel()
+        balls[f"{race}_film_parameter"] = state.film_parameter[race].ravel()
+        loaded = balls[f"{race}_force_n"].to_numpy().reshape(state.film_parameter[race].shape) > 0
+        loaded_lambda.append(np.where(loaded, state.film_parameter[race], np.inf))
     for race in ("inner", "outer"):
-        result.balls[f"{race}_regime"] = pd.Categorical.from_codes(
+        balls[f"{race}_regime"] = pd.Categorical.from_codes(
             lubrication_regime(state.film_parameter[race]).ravel(), LUBRICATION_REGIMES
         )
+    smallest = np.min(np.concatenate(loaded_lambda, axis=1), axis=1)
+    signals["film_parameter_min"] = np.where(np.isfinite(smallest), smallest, np.nan)
 
 
 def impedance_sweep(result: SimulationResult, frequencies_hz, instant: int = -1) -> pd.DataFrame:

@@ -7,6 +7,7 @@ Both engines (the DEM in :mod:`signatelec.engines.dem` and the quasi-static tier
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import pandas as pd
 
@@ -39,20 +40,40 @@ def phase_times(scene: Scene) -> tuple[float, float, float]:
 
 @dataclass
 class SimulationResult:
-    """Outcome of :func:`simulate`: the scene, tables of balls and signals, timings."""
+    """Outcome of :func:`simulate`: the scene, tables of balls and signals, timings.
+
+    A run streamed to a directory (``simulate(scene, out_dir=...)``) holds no tables
+    (``balls`` and ``signals`` are None): they are in ``out_dir``, and :attr:`steady_signal_means`
+    holds the steady-phase means of the signal columns gathered on the way.
+    """
 
     scene: Scene
-    balls: pd.DataFrame
-    signals: pd.DataFrame
+    balls: pd.DataFrame | None
+    signals: pd.DataFrame | None
     timings: dict = field(default_factory=dict)
     stability: object | None = None  # physics.stability.StabilityLimit for a DEM run
+    out_dir: Path | None = None
+    steady_signal_means: dict | None = None
 
     def steady(self, table: str = "signals", settle_s: float = 0.0) -> pd.DataFrame:
         """Rows of the steady-running phase, from ``settle_s`` after the set-up ends."""
-        df = getattr(self, table)
+        df = self._table(table)
         return df[df["time_s"] > self.scene.setup_time_s + settle_s + 1e-12]
+
+    def steady_means(self) -> dict[str, float]:
+        """Mean of each numeric signal column over the steady phase (NaN skipped)."""
+        if self.signals is None:
+            return dict(self.steady_signal_means or {})
+        return self.steady().drop(columns="phase").mean().to_dict()
 
     def write(self, out_dir) -> None:
         from signatelec.io import write_result
 
+        self._table("balls")
         write_result(self, out_dir)
+
+    def _table(self, name: str) -> pd.DataFrame:
+        df = getattr(self, name)
+        if df is None:
+            raise ValueError(f"this run was streamed to {self.out_dir}: read {name}.parquet there")
+        return df

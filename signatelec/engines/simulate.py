@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from signatelec.config.scene import Scene
 from signatelec.engines.results import SimulationResult
 
 
-def simulate(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
+def simulate(
+    scene: Scene | None = None, *, progress: bool = False, out_dir: str | Path | None = None
+) -> SimulationResult:
     """Simulate ``scene`` (default: the seed's scene).
 
     ``numerics.fidelity = "dem"`` runs the DEM kernel
@@ -19,25 +22,44 @@ def simulate(scene: Scene | None = None, *, progress: bool = False) -> Simulatio
     whose run exceeds the limits of :mod:`signatelec.engines.budget` (checked first) and
     :class:`~signatelec.engines.results.DivergenceError` when a run leaves the physical range.
     ``effects.lubrication = "ehl"`` adds the lubricated bearing's columns
-    (:func:`signatelec.engines.lubrication.add_lubrication`) to either engine's tables.
+    (:mod:`signatelec.engines.lubrication`) to either engine's tables, streamed or not.
+
+    Without ``out_dir`` the tables are returned in memory. With it, they are written to
+    ``out_dir/balls.parquet`` and ``signals.parquet`` as the run goes, in blocks of recorded
+    instants (:mod:`signatelec.engines.stream`: memory bounded whatever the duration), under the
+    output-directory contract of :mod:`signatelec.io` (the directory appears, or is replaced, only
+    when the run completes); the result then holds the timings and the steady-phase means only.
     """
     from signatelec.engines.budget import check_run
 
     scene = scene or Scene()
-    check_run(scene)
+    check_run(scene, out_dir=out_dir)
     if scene.numerics.fidelity == "quasistatic":
-        from signatelec.engines.quasistatic.tier import simulate_quasistatic
-
-        result = simulate_quasistatic(scene, progress=progress)
+        from signatelec.engines.quasistatic.tier import simulate_quasistatic as engine
     else:
-        from signatelec.engines.dem.run import simulate_dem
+        from signatelec.engines.dem.run import simulate_dem as engine
+    if out_dir is None:
+        result = engine(scene, progress=progress)
+        if scene.effects.lubrication != "none":
+            # post-processing of the recorded kinematics and loads: nothing of it runs when off
+            from signatelec.engines.lubrication import add_lubrication
 
-        result = simulate_dem(scene, progress=progress)
-    if scene.effects.lubrication != "none":
-        # post-processing of the recorded kinematics and loads: nothing of it runs when off
-        from signatelec.engines.lubrication import add_lubrication
+            t0 = time.perf_counter()
+            add_lubrication(result)
+            result.timings["lubrication_s"] = time.perf_counter() - t0
+        return result
 
-        t0 = time.perf_counter()
-        add_lubrication(result)
-        result.timings["lubrication_s"] = time.perf_counter() - t0
+    from signatelec.engines.stream import TableStream
+    from signatelec.io import check_output_dir, is_simulate_output, replace_directory
+
+    check_output_dir(str(out_dir), "simulate", previous=is_simulate_output)
+    with replace_directory(out_dir, "simulate", previous=is_simulate_output) as tmp:
+        stream = TableStream(tmp, scene)
+        try:
+            result = engine(scene, progress=progress, stream=stream)
+            stream.finish(result.timings)
+        finally:
+            stream.close()
+    result.out_dir = Path(out_dir)
+    result.steady_signal_means = stream.steady_means()
     return result

@@ -43,9 +43,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import csgraph
-from scipy.sparse.linalg import spsolve
 
 from signatelec.config.bearing import Bearing
 from signatelec.physics.conductance import ball_conductance, bearing_contact_area
@@ -71,6 +68,10 @@ def _solve_kirchhoff(n_nodes, node_a, node_b, conductance_s, source, sink, curre
     NaN. Returns ``(potential_v (n_nodes,), resistance_ohm (n_blocks,))`` with inf where the source
     and the sink are not connected.
     """
+    from scipy import sparse  # here: only ball/ball contacts need it
+    from scipy.sparse import csgraph
+    from scipy.sparse.linalg import spsolve
+
     keep = conductance_s > 0.0
     a, b, c = node_a[keep], node_b[keep], conductance_s[keep]
     graph = sparse.coo_array((c, (a, b)), shape=(n_nodes, n_nodes))
@@ -369,17 +370,36 @@ def bearing_electrics(
         raise ValueError(f"checked_instants {checked.shape} must have shape ({n_instants},)")
     over = (density > density_limit_a_m2) & checked
     if np.any(over):
-        warnings.warn(
-            f"contact current density above {density_limit_a_m2 * 1e-6:g} A/mm^2 at "
-            f"{int(over.sum())} of {int(checked.sum())} instants"
-            f"{'' if checked_instants is None else ' checked'} (largest "
-            f"{density[checked].max() * 1e-6:.3g} "
-            f"A/mm^2, injected current {injected_current_a:g} A); seed section 3: above "
-            "0.1 A/mm^2 the raceways are harmed",
-            CurrentDensityWarning,
-            stacklevel=2,
+        warn_current_density(
+            int(over.sum()),
+            int(checked.sum()),
+            float(density[checked].max()),
+            density_limit_a_m2,
+            injected_current_a,
+            checked_instants is not None,
         )
     return ElectricalResult(resistance, current, potential, inner_area, outer_area, density)
+
+
+def warn_current_density(
+    n_over: int,
+    n_checked: int,
+    largest_a_m2: float,
+    density_limit_a_m2: float,
+    injected_current_a: float,
+    checked: bool = True,
+) -> None:
+    """One :class:`CurrentDensityWarning`: ``n_over`` of ``n_checked`` instants above the limit
+    (a run computed block by block counts over all its blocks, then warns once)."""
+    warnings.warn(
+        f"contact current density above {density_limit_a_m2 * 1e-6:g} A/mm^2 at "
+        f"{n_over} of {n_checked} instants{' checked' if checked else ''} (largest "
+        f"{largest_a_m2 * 1e-6:.3g} "
+        f"A/mm^2, injected current {injected_current_a:g} A); seed section 3: above "
+        "0.1 A/mm^2 the raceways are harmed",
+        CurrentDensityWarning,
+        stacklevel=3,
+    )
 
 
 def _forces(force_n, name: str) -> np.ndarray:
@@ -468,11 +488,14 @@ def _parallel_balls(inner_area, outer_area, cos_theta, bearing: Bearing, current
         out=np.full(n_touch.shape, np.nan),
         where=(n_touch > 0) & on[:, None],
     )
-    density = np.maximum(_max_density(current, inner_area), _max_density(current, outer_area))
+    density = np.maximum(
+        max_current_density_a_m2(current, inner_area), max_current_density_a_m2(current, outer_area)
+    )
     return resistance, current, potential, density
 
 
-def _max_density(current_a, area_m2):
+def max_current_density_a_m2(current_a, area_m2):
+    """Largest |current| / contact area over every axis but the first (0 where no area), A/m^2."""
     density = np.divide(
         np.abs(current_a), area_m2, out=np.zeros(np.shape(area_m2)), where=area_m2 > 0.0
     )
@@ -531,5 +554,5 @@ def _ball_network(inner_area, outer_area, ball_ball_area, directions, bearing, c
     count = touching.sum(axis=-1)
     total = np.where(touching, slot_potential, 0.0).sum(axis=-1)
     ball_potential = np.divide(total, count, out=np.full(count.shape, np.nan), where=count > 0)
-    density = _max_density(slot_current, slot_area)
+    density = max_current_density_a_m2(slot_current, slot_area)
     return resistance, current, ball_potential, density

@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import quad
 
 
 def _load_zone_half_angle(epsilon):
@@ -52,6 +51,8 @@ def harris_radial_integral(epsilon, exponent=1.5):
         J_r, same shape as ``epsilon``.
     """
     eps = np.asarray(epsilon, dtype=float)
+    from scipy.integrate import quad  # here: a scene's validation needs none of scipy
+
     flat_eps = eps.ravel()
     half_angle = _load_zone_half_angle(flat_eps)
     out = np.zeros(flat_eps.shape)

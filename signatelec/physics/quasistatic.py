@@ -41,17 +41,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from signatelec.config.bearing import INNER, OUTER, STANDARD_GRAVITY_M_S2, Bearing, raceway_radii
 from signatelec.physics.contact import hertz_overlap, law_coefficients
 from signatelec.physics.load_distribution import epsilon_from_shift, load_zone_limit_rad
-from signatelec.physics.ring_equilibrium import (
-    RingSolution,
-    ball_forces,
-    solve_ring,
-)
+
+if TYPE_CHECKING:  # the compiled solver is loaded where it is used: validating a scene needs
+    # the preload limit of this module, not the solver (numba)
+    from signatelec.physics.ring_equilibrium import RingSolution
 
 #: Equilibrium residual asked of the theory, relative to the load carried; a ball's series
 #: deflection is converged to ~1e-14 (signatelec.physics.ring_equilibrium).
@@ -161,6 +161,8 @@ def ball_loads(
     approach, body = (
         np.ascontiguousarray(a, dtype=float) for a in np.broadcast_arrays(approach, body)
     )
+    from signatelec.physics.ring_equilibrium import ball_forces
+
     inner, outer = np.zeros(approach.shape), np.zeros(approach.shape)
     ball_forces(approach.ravel(), body.ravel(), ci, co, exponent, inner.ravel(), outer.ravel())
     return inner, outer
@@ -243,6 +245,8 @@ def ring_equilibrium(
     ``load_xy_n`` a (T, 2) array of the load at each instant, replacing the static F_r's (a
     rotating or time-varying load). Raises as :func:`solve_equilibrium_over_time`.
     """
+    from signatelec.physics.ring_equilibrium import solve_ring
+
     psi = np.asarray(ball_angle_rad, dtype=float)
     if psi.ndim != 2 or psi.shape[1] < 3:
         raise ValueError(f"ball_angle_rad: shape (T, Z) with Z >= 3 expected, got {psi.shape}")

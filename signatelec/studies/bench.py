@@ -116,3 +116,55 @@ def format_table(report: dict) -> str:
             f"{rel:>5s} {r['run_s']:7.3f} {r['compile_s']:9.2f} {elec:>12s}"
         )
     return "\n".join(lines)
+
+
+def tier_marginal_cost(repeat: int = 5, sample_rate_hz: float = 20000.0) -> dict:
+    """Marginal CPU per simulated second of the DEM and of the quasi-static tier on the seed's
+    scene, in this process, interleaved: each engine run at two durations (the DEM 5 and 25 ms of
+    steady running, the tier 2 and 10 s, whose instants map onto one ball-pass period), the CPU
+    difference over the duration difference; the best of ``repeat`` pairs, as for the cases (the
+    others carry another process's load), and the median. User and system CPU are given apart:
+    the tier's cost is mostly the memory of its tables (~1.5 kB per instant), whose first touch
+    (page faults, system time) a loaded host makes several times dearer. Kernels are compiled or
+    loaded by a first run of each, outside the figures."""
+    import resource
+
+    from signatelec.engines.simulate import simulate
+
+    seed = Scene().with_overrides(sample_rate_hz=sample_rate_hz)
+    setup = seed.setup_time_s
+    quasistatic = seed.with_overrides(fidelity="quasistatic")
+    spans = {
+        "dem": (seed, setup + 0.005, setup + 0.025),
+        "quasistatic": (quasistatic, setup + 2.0, setup + 10.0),
+    }
+
+    def cpu_s(scene: Scene, duration_s: float) -> tuple[float, float]:
+        scene = scene.with_overrides(duration_s=duration_s)
+        before = resource.getrusage(resource.RUSAGE_SELF)
+        simulate(scene)
+        after = resource.getrusage(resource.RUSAGE_SELF)
+        return after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime
+
+    for scene, short, _ in spans.values():
+        cpu_s(scene, short)  # compile or load, outside the figures
+    total: dict[str, list[float]] = {name: [] for name in spans}
+    user: dict[str, list[float]] = {name: [] for name in spans}
+    for _ in range(max(1, repeat)):
+        for name, (scene, short, long) in spans.items():
+            (u1, s1), (u2, s2) = cpu_s(scene, short), cpu_s(scene, long)
+            total[name].append((u2 + s2 - u1 - s1) / (long - short))
+            user[name].append((u2 - u1) / (long - short))
+    best = {name: min(v) for name, v in total.items()}
+    median = {name: sorted(v)[len(v) // 2] for name, v in total.items()}
+    best_user = {name: min(v) for name, v in user.items()}
+    return {
+        "sample_rate_hz": sample_rate_hz,
+        "dem_cpu_s_per_simulated_s": best["dem"],
+        "quasistatic_cpu_s_per_simulated_s": best["quasistatic"],
+        "ratio": best["dem"] / best["quasistatic"],
+        "median_ratio": median["dem"] / median["quasistatic"],
+        "user_ratio": best_user["dem"] / best_user["quasistatic"],
+        "runs": total,
+        "user_runs": user,
+    }

@@ -35,6 +35,7 @@ from signatelec.engines.results import (
     SimulationResult,
     phase_times,
 )
+from signatelec.engines.stream import STREAM_BLOCK_INSTANTS, TableStream
 from signatelec.physics.contact import (
     critical_damping,
     hertz_critical_damping,
@@ -283,41 +284,98 @@ def measured_cure(scene: Scene, status: np.ndarray) -> str:
     return "; ".join(tried)
 
 
-def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray) -> None:
-    """Seed section 3 at every recorded instant: resistance, ball currents and potentials."""
-    from signatelec.physics.electrical import bearing_electrics
+class _BlockElectrics:
+    """Seed section 3 block by block: resistance, ball currents and potentials at every recorded
+    instant, with the current-density figures of the whole run gathered over the blocks."""
 
-    scene = result.scene
-    z = scene.bearing.n_balls
-    steady = (result.signals["phase"] == "steady").to_numpy()
-    el = bearing_electrics(
-        fcon[:, :, 0],
-        fcon[:, :, 1],
-        scene.bearing,
-        scene.operating.injected_current_a,
-        ball_xy_m=pos[:, :z],
-        inner_ring_xy_m=pos[:, 2 * z],
-        ball_ball_force_n=fcon[:, :, 4] if scene.effects.cage == "none" else None,
-        checked_instants=steady,
-    )
-    # the set-up's first contacts are tiny and carry the whole current: information only
-    density = el.max_current_density_a_m2
-    result.timings["setup_peak_current_density_a_m2"] = float(density[~steady].max(initial=0.0))
-    result.timings["steady_peak_current_density_a_m2"] = float(density[steady].max(initial=0.0))
-    result.signals["resistance_ohm"] = el.resistance_ohm
-    result.signals["max_current_density_a_m2"] = el.max_current_density_a_m2
-    for name in ("current_a", "potential_v", "inner_area_m2", "outer_area_m2"):
-        result.balls[name] = getattr(el, name).ravel()
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.setup_peak = self.steady_peak = 0.0
+        self.n_over = self.n_checked = 0
+        self.seconds = 0.0
+
+    def add(self, balls, signals, fcon: np.ndarray, pos: np.ndarray) -> None:
+        from signatelec.physics.electrical import DENSITY_LIMIT_A_M2, bearing_electrics
+
+        t0 = time.perf_counter()
+        scene = self.scene
+        z = scene.bearing.n_balls
+        steady = (signals["phase"] == "steady").to_numpy()
+        el = bearing_electrics(
+            fcon[:, :, 0],
+            fcon[:, :, 1],
+            scene.bearing,
+            scene.operating.injected_current_a,
+            ball_xy_m=pos[:, :z],
+            inner_ring_xy_m=pos[:, 2 * z],
+            ball_ball_force_n=fcon[:, :, 4] if scene.effects.cage == "none" else None,
+            density_limit_a_m2=np.inf,  # warned once for the run (finish)
+        )
+        density = el.max_current_density_a_m2
+        self.setup_peak = max(self.setup_peak, float(density[~steady].max(initial=0.0)))
+        self.steady_peak = max(self.steady_peak, float(density[steady].max(initial=0.0)))
+        self.n_over += int(((density > DENSITY_LIMIT_A_M2) & steady).sum())
+        self.n_checked += int(steady.sum())
+        signals["resistance_ohm"] = el.resistance_ohm
+        signals["max_current_density_a_m2"] = el.max_current_density_a_m2
+        for name in ("current_a", "potential_v", "inner_area_m2", "outer_area_m2"):
+            balls[name] = getattr(el, name).ravel()
+        self.seconds += time.perf_counter() - t0
+
+    def finish(self, timings: dict, n_instants: int) -> None:
+        """The run's timings, and one warning when the steady phase exceeds the seed's limit."""
+        from signatelec.physics.electrical import DENSITY_LIMIT_A_M2, warn_current_density
+
+        if self.n_over:
+            current = self.scene.operating.injected_current_a
+            warn_current_density(
+                self.n_over, self.n_checked, self.steady_peak, DENSITY_LIMIT_A_M2, current
+            )
+        # the set-up's first contacts are tiny and carry the whole current: information only
+        timings["setup_peak_current_density_a_m2"] = self.setup_peak
+        timings["steady_peak_current_density_a_m2"] = self.steady_peak
+        timings["electrical_s"] = self.seconds
+        timings["electrical_us_per_instant"] = 1e6 * self.seconds / max(n_instants, 1)
+
+
+def process_age_s() -> float | None:
+    """Seconds since this process started (Linux /proc, 10 ms resolution), else None."""
+    import os
+
+    try:
+        with open("/proc/self/stat", "rb") as fh:
+            start_ticks = int(fh.read().rsplit(b")", 1)[1].split()[19])
+        with open("/proc/uptime", "rb") as fh:
+            uptime_s = float(fh.read().split()[0])
+        return max(uptime_s - start_ticks / os.sysconf("SC_CLK_TCK"), 0.0)
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _block_tables(scene: Scene, n_rec: int, rec, electrics: _BlockElectrics | None):
+    """The tables of the ``n_rec`` instants held in ``rec``, electrical columns included."""
+    balls, signals = _raw_tables(scene, n_rec, rec)
+    if electrics is not None:
+        electrics.add(balls, signals, rec.fcon[:n_rec], rec.pos[:n_rec])
+    return balls, signals
 
 
 def simulate_dem(
-    scene: Scene | None = None, *, progress: bool = False, cure: bool = True
+    scene: Scene | None = None,
+    *,
+    progress: bool = False,
+    cure: bool = True,
+    stream: TableStream | None = None,
 ) -> SimulationResult:
     """Simulate ``scene`` (default: the seed's scene) with the DEM kernel.
 
     Raises :class:`SceneError` when dt is above the stability limit (before running) and
     :class:`DivergenceError` when the run leaves the physical range; with ``cure``, its message
     names the setting that cures it, measured by short probe runs (:func:`measured_cure`).
+    With ``stream`` the kernel records into a buffer of
+    :data:`~signatelec.engines.stream.STREAM_BLOCK_INSTANTS` instants whose tables go to the
+    stream each time it fills (the result then holds no tables); otherwise the whole run is one
+    block, returned in memory. The values are the same either way.
     """
     scene = scene or Scene()
     limit = stability_limit(scene)
@@ -331,7 +389,9 @@ def simulate_dem(
     p = kernel_parameters(scene)
     st = initial_state(scene)
     n_steps, every = scene.n_steps, scene.record_every
-    rec = new_recording(n_steps // every, scene.bearing.n_balls)
+    n_total = n_steps // every
+    block = n_total if stream is None else max(1, min(n_total, STREAM_BLOCK_INSTANTS))
+    rec = new_recording(block, scene.bearing.n_balls)
 
     t0 = time.perf_counter()
     # compile, or load from the on-disk cache, before anything runs
@@ -339,33 +399,44 @@ def simulate_dem(
     kern.start(p, st)
     compile_s = time.perf_counter() - t0
 
+    electrics = _BlockElectrics(scene) if scene.outputs.electrical else None
+    first_step_s = process_age_s()  # start-up: interpreter, imports, kernel load, scene
     chunk = max(every, (n_steps // 200) // every * every)
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=n_steps, unit="step", unit_scale=True, desc="simulate", leave=False)
-    t0 = time.perf_counter()
-    cpu0 = time.process_time()
-    step = 0
-    rec_index = 0
+    run_s = run_cpu_s = 0.0
+    step = rec_index = flushed = 0
     while step < n_steps:
-        count = min(chunk, n_steps - step)
+        if stream is not None and rec_index == block:
+            stream.write(*_block_tables(scene, rec_index, rec, electrics))
+            rec_index, flushed = 0, flushed + 1
+        free = block - rec_index
+        # run until the buffer is full (its last instant is recorded at step k every - 1)
+        to_fill = (step // every + free) * every - step if free else n_steps - step
+        count = min(chunk, n_steps - step, to_fill)
+        t0, cpu0 = time.perf_counter(), time.process_time()
         rec_index = kern.run(p, st, rec, step, count, every, rec_index)
+        run_s += time.perf_counter() - t0
+        run_cpu_s += time.process_time() - cpu0
         step += count
         if bar is not None:
             bar.update(count)
         if st.status[0] != OK:
             break
-    run_s = time.perf_counter() - t0
-    run_cpu_s = time.process_time() - cpu0
     if bar is not None:
         bar.close()
     if st.status[0] != OK:
         remedy = measured_cure(scene, st.status) if cure else None
         raise DivergenceError(_divergence_message(scene, st.status, remedy))
 
-    balls, signals = _raw_tables(scene, rec_index, rec)
+    balls = signals = None
+    if stream is None:
+        balls, signals = _block_tables(scene, rec_index, rec, electrics)
+    elif rec_index or not flushed:
+        stream.write(*_block_tables(scene, rec_index, rec, electrics))
     timings = {
         "compile_s": compile_s,
         "run_s": run_s,
@@ -379,13 +450,8 @@ def simulate_dem(
         "duration_s": scene.numerics.duration_s,
         "stability_limit_s": limit.dt_limit_s,
         "chosen": sorted(scene.auto),
+        "process_to_first_step_s": first_step_s,
     }
-    result = SimulationResult(scene, balls, signals, timings, limit)
-    if scene.outputs.electrical:
-        t0 = time.perf_counter()
-        _add_electrical(result, rec.fcon[:rec_index], rec.pos[:rec_index])
-        result.timings["electrical_s"] = time.perf_counter() - t0
-        result.timings["electrical_us_per_instant"] = (
-            1e6 * result.timings["electrical_s"] / max(rec_index, 1)
-        )
-    return result
+    if electrics is not None:
+        electrics.finish(timings, n_total)
+    return SimulationResult(scene, balls, signals, timings, limit)

@@ -73,6 +73,7 @@ import pandas as pd
 
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.scene import Scene
+from signatelec.engines.quasistatic.period import PeriodMap, ball_angles_rad, use_period_map
 from signatelec.engines.results import PHASES, SimulationResult, phase_times
 from signatelec.physics.contact import NORMAL_LAWS
 from signatelec.physics.defects import clearance_offsets_m, tabulated_loads_n
@@ -115,9 +116,7 @@ def kinematic_cage_angle_rad(scene: Scene, time_s) -> np.ndarray:
 
 def kinematic_ball_angles_rad(scene: Scene, time_s) -> np.ndarray:
     """Angles (T, Z) of the balls rolling without slip, from -y counter-clockwise, in (-pi, pi]."""
-    z = scene.bearing.n_balls
-    psi = kinematic_cage_angle_rad(scene, time_s)[:, None] + 2.0 * math.pi * np.arange(z) / z
-    return math.pi - np.remainder(math.pi - psi, 2.0 * math.pi)
+    return ball_angles_rad(kinematic_cage_angle_rad(scene, time_s), scene.bearing.n_balls)
 
 
 def steady_record_times_s(scene: Scene) -> np.ndarray:
@@ -197,32 +196,18 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None, time_s=No
 # --- the tier ------------------------------------------------------------------------------------
 
 
-def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) -> SimulationResult:
-    """The steady phase of ``scene`` by the quasi-static tier (see the module docstring).
-
-    Same tables and columns as :func:`signatelec.engines.simulate.simulate` (``progress`` is
-    accepted for the same signature and ignored), rows of the steady phase only. ``timings`` holds
-    ``run_s`` (equilibrium), ``electrical_s``, ``total_s``, ``n_instants`` and ``compile_s``
-    (the first call of a process loads the compiled solver); ``n_steps = 0``: no time step.
-    """
-    del progress
-    t_start = time.perf_counter()
-    scene = scene or Scene()
+def instant_columns(scene: Scene, t, psi) -> tuple[dict, dict, dict]:
+    """The tables' columns (``balls`` raveled, ``signals``) of the quasi-static state at each
+    instant of ``t`` with ball angles ``psi`` (T, Z), solved instant by instant, and the time its
+    parts took (``run_s`` the equilibrium, ``electrical_s``). The electrical network warns of no
+    current density: the caller warns once for the run (:func:`density_warning`)."""
     b, op = scene.bearing, scene.operating
     z = b.n_balls
-    t = steady_record_times_s(scene)
     n_rec = t.size
-    psi = kinematic_ball_angles_rad(scene, t)
-
-    compile_s = 0.0
-    if not solver_loaded():
-        t0 = time.perf_counter()
-        solve_ring_equilibrium(scene, psi[:1])
-        compile_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     ux, uy = np.sin(psi), -np.cos(psi)
     eq = solve_ring_equilibrium(scene, psi, (ux, uy), t)
-    run_s = time.perf_counter() - t0
+    spent = {"run_s": time.perf_counter() - t0}
 
     omega = op.omega_rad_s
     omega_c = b.cage_speed_rad_s(omega)
@@ -262,6 +247,94 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
     }
     if scene.outputs.energy:
         signals.update(_energy_columns(scene, eq, radius, omega_c, spin))
+    if scene.outputs.electrical:
+        from signatelec.physics.electrical import bearing_electrics
+
+        t0 = time.perf_counter()
+        # theta of eq. 16 is pi: each ball lies on its radius and the ring shift (microns, beside a
+        # 30 mm pitch radius) turns its inner contact by ~1e-4 rad, cos theta = -1 + 1e-8.
+        el = bearing_electrics(
+            eq.inner_force_n, eq.outer_force_n, b, op.injected_current_a, density_limit_a_m2=np.inf
+        )
+        signals["resistance_ohm"] = el.resistance_ohm
+        signals["max_current_density_a_m2"] = el.max_current_density_a_m2
+        for name in ("current_a", "potential_v", "inner_area_m2", "outer_area_m2"):
+            balls[name] = getattr(el, name).ravel()
+        spent["electrical_s"] = time.perf_counter() - t0
+    return balls, signals, spent
+
+
+def density_warning(scene: Scene, densities: list[np.ndarray]) -> None:
+    """One current-density warning for the run's instants (seed section 3), as the DEM's."""
+    from signatelec.physics.electrical import DENSITY_LIMIT_A_M2, warn_current_density
+
+    density = np.concatenate(densities) if densities else np.zeros(0)
+    over = int((density > DENSITY_LIMIT_A_M2).sum())
+    if over:
+        current = scene.operating.injected_current_a
+        largest = float(density.max())
+        warn_current_density(over, density.size, largest, DENSITY_LIMIT_A_M2, current, False)
+
+
+def simulate_quasistatic(
+    scene: Scene | None = None, *, progress: bool = False, stream=None
+) -> SimulationResult:
+    """The steady phase of ``scene`` by the quasi-static tier (see the module docstring).
+
+    Same tables and columns as :func:`signatelec.engines.simulate.simulate` (``progress`` is
+    accepted for the same signature and ignored), rows of the steady phase only. ``timings`` holds
+    ``run_s`` (equilibrium), ``electrical_s``, ``total_s``, ``n_instants`` and ``compile_s``
+    (the first call of a process loads the compiled solver); ``n_steps = 0``: no time step.
+
+    A long steady phase of a ball-pass periodic scene
+    (:func:`signatelec.engines.quasistatic.period.ball_pass_periodic`) is solved over one
+    ball-pass period once and every instant mapped onto it
+    (:class:`~signatelec.engines.quasistatic.period.PeriodMap`; ``timings["period_map"]``);
+    otherwise instant by instant. With ``stream``
+    (:class:`~signatelec.engines.stream.TableStream`) the tables go to it in blocks of
+    :data:`~signatelec.engines.stream.STREAM_BLOCK_INSTANTS` instants.
+    """
+    from signatelec.engines.stream import STREAM_BLOCK_INSTANTS
+
+    del progress
+    t_start = time.perf_counter()
+    scene = scene or Scene()
+    t = steady_record_times_s(scene)
+    n_rec = t.size
+
+    compile_s = 0.0
+    if not solver_loaded():
+        t0 = time.perf_counter()
+        solve_ring_equilibrium(scene, kinematic_ball_angles_rad(scene, t[:1]))
+        compile_s = time.perf_counter() - t0
+    spent = {"run_s": 0.0}
+    if scene.outputs.electrical:
+        spent["electrical_s"] = 0.0
+    mapper = None
+    if use_period_map(scene, n_rec):
+        t0 = time.perf_counter()
+        mapper = PeriodMap(scene, instant_columns, kinematic_cage_angle_rad)
+        compile_s += mapper.compile_s
+        spent["period_grid_s"] = time.perf_counter() - t0 - mapper.compile_s
+    size = n_rec if stream is None else STREAM_BLOCK_INSTANTS
+    densities = []
+    balls = signals = None
+    for first in range(0, max(n_rec, 1), max(size, 1)):
+        tb = t[first : first + size]
+        if mapper is not None:
+            b, s, block_spent = mapper.columns(tb)
+        else:
+            b, s, block_spent = instant_columns(scene, tb, kinematic_ball_angles_rad(scene, tb))
+        for key, value in block_spent.items():
+            spent[key] = spent.get(key, 0.0) + value
+        if "max_current_density_a_m2" in s:
+            densities.append(s["max_current_density_a_m2"])
+        balls, signals = pd.DataFrame(b, copy=False), pd.DataFrame(s, copy=False)
+        if stream is not None:
+            stream.write(balls, signals)
+            balls = signals = None
+    density_warning(scene, densities)
+    run_s = spent.pop("run_s")
     timings = {
         "tier": "quasistatic",
         "kernel": "quasistatic",
@@ -272,20 +345,13 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "n_instants": int(n_rec),
         "us_per_instant": 1e6 * run_s / max(n_rec, 1),
     }
-    if scene.outputs.electrical:
-        from signatelec.physics.electrical import bearing_electrics
-
-        t0 = time.perf_counter()
-        # theta of eq. 16 is pi: each ball lies on its radius and the ring shift (microns, beside a
-        # 30 mm pitch radius) turns its inner contact by ~1e-4 rad, cos theta = -1 + 1e-8.
-        el = bearing_electrics(eq.inner_force_n, eq.outer_force_n, b, op.injected_current_a)
-        signals["resistance_ohm"] = el.resistance_ohm
-        signals["max_current_density_a_m2"] = el.max_current_density_a_m2
-        for name in ("current_a", "potential_v", "inner_area_m2", "outer_area_m2"):
-            balls[name] = getattr(el, name).ravel()
-        timings["electrical_s"] = time.perf_counter() - t0
+    if "electrical_s" in spent:
+        timings["electrical_s"] = spent.pop("electrical_s")
         timings["electrical_us_per_instant"] = 1e6 * timings["electrical_s"] / max(n_rec, 1)
-    result = SimulationResult(scene, pd.DataFrame(balls), pd.DataFrame(signals), timings, None)
+    if mapper is not None:
+        timings["period_map"] = mapper.describe()
+        timings.update(spent)  # period_grid_s (the period solved once), map_s (the instants)
+    result = SimulationResult(scene, balls, signals, timings, None)
     timings["total_s"] = time.perf_counter() - t_start - compile_s
     return result
 
