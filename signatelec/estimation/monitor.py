@@ -62,6 +62,9 @@ KEPT_FEATURES = (
     "h2_even_rel",
     "ball_pass_found_hz",
 )
+#: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
+#: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
+TRACK_MIN_SNR = 25.0
 #: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
 TYPICAL_SLIP = -0.001
 
@@ -216,7 +219,9 @@ class _Windows:
         n_per = max(1, int(round(BLOCK_S / hop)))
         start = self.t0 + self.next_window * hop
         end_needed = start + (n_per - 1) * hop + win
-        last = self.t[-1] if self.t.size else -math.inf
+        if not self.t.size:
+            return False
+        last = self.t[-1]
         if last < end_needed:
             if not final:
                 return False
@@ -291,7 +296,7 @@ class _Windows:
                 resistance_max_ohm=float(seg.max()),
                 **{name: f[name] for name in KEPT_FEATURES},
             )
-            if self.s.track_speed and f["ball_pass_peak_ratio"] > 3.0:
+            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
                 # the found line predicts the next window's speed (kinematics are linear in it)
                 self.tracked = f["ball_pass_found_hz"] / (
                     expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)

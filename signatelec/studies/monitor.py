@@ -19,7 +19,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable
@@ -32,7 +31,6 @@ from signatelec.config.bearing import Bearing
 from signatelec.config.scene import Scene
 from signatelec.engines.simulate import simulate
 from signatelec.io import write_bytes_atomic
-from signatelec.physics.kinematics import expected_ball_pass_hz
 from signatelec.physics.quasistatic import clearance_for_epsilon
 from signatelec.physics.regimes import regime_of
 
@@ -168,7 +166,7 @@ def assemble_record(
             }
         )
         t0 += n / fs
-        if i < n_stretches - 1:
+        if i < n_stretches - 1 + (final_constant_s is not None):
             load = by_state.radial_load_n
             step = (load / float(row.radial_load_n) - 1.0).abs()
             same = by_state.regime == row.regime
@@ -192,9 +190,87 @@ def write_record(path: Path, resistance_ohm: np.ndarray, fs: float) -> None:
     pq.write_table(table, path, row_group_size=1 << 20)
 
 
-def _json(data: dict) -> bytes:
-    return (json.dumps(data, indent=2, sort_keys=True) + "\n").encode()
+#: Records of the acceptance run: stretches per record before the final constant stretch.
+N_RECORDS = 20
+N_STRETCHES = 6
+CONSTANT_S = 60.0
 
 
-__all__ = ["assemble_record", "bank_states", "dem_bank", "whole_passes", "write_record", "_json"]
-_ = (expected_ball_pass_hz, write_bytes_atomic)
+def run_records(
+    bank: pd.DataFrame,
+    model,
+    directory: Path,
+    n_records: int = N_RECORDS,
+    constant_s: float = CONSTANT_S,
+    log: Callable[[str], None] | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
+    """Monitor ``n_records`` assembled records: (truth, found stretches, change statistics)."""
+    from signatelec.estimation.evidence import stretches_and_changes
+    from signatelec.estimation.monitor import MonitorSettings, monitor_trace
+    from signatelec.studies.monitor_metrics import match_record
+
+    rng = np.random.default_rng(BANK_SEED + 1)
+    settings = MonitorSettings(omega_rad_s=OMEGA_RAD_S)
+    rows, change_rows = [], []
+    cpu = seconds = 0.0
+    example = None
+    for i in range(n_records):
+        noisy, truth = assemble_record(bank, rng, N_STRETCHES, constant_s)
+        path = directory / f"record-{i:02d}.parquet"
+        write_record(path, noisy, SAMPLE_RATE_HZ)
+        table = monitor_trace(path, model, settings)
+        path.unlink()
+        windows = table.frame()
+        stretches, changes, alarms = stretches_and_changes(windows, settings.hop)
+        cpu += table.cpu_s
+        seconds += noisy.size / SAMPLE_RATE_HZ
+        truth_m, chg = match_record(truth, stretches, changes, windows, settings.window_s)
+        for frame, out in ((truth_m, rows), (chg, change_rows)):
+            frame.insert(0, "record", i)
+            out.append(frame)
+        if example is None:
+            example = (windows, table, settings, stretches, changes, alarms)
+        if log:
+            log(f"record {i}: {seconds:.0f} s of trace monitored, {cpu:.1f} s CPU")
+    return (
+        pd.concat(rows, ignore_index=True),
+        pd.concat(change_rows, ignore_index=True),
+        {"trace_s": seconds, "cpu_s": cpu, "example": example},
+    )
+
+
+def run_study(
+    out: str | Path,
+    bank_dir: str | Path = "/tmp/monitor-bank",
+    quick: bool = False,
+    minutes: tuple[float, ...] = (1.0, 10.0, 60.0),
+    log: Callable[[str], None] | None = None,
+) -> dict[str, Path]:
+    """The study (module docstring) into ``out``: monitor.md, monitor_stretches.parquet,
+    monitor_changes.parquet, monitor_example.png."""
+    from signatelec.estimation.monitor_report import draw, summary_of
+    from signatelec.estimation.persistence import default_model
+    from signatelec.studies.monitor_metrics import acceptance_report, throughput_table
+
+    start = time.time()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    bank = dem_bank(bank_dir, log=log)
+    model = default_model(log=log)
+    work = Path(bank_dir) / "records"
+    work.mkdir(exist_ok=True)
+    n = 2 if quick else N_RECORDS
+    truth, changes, info = run_records(bank, model, work, n, 10.0 if quick else CONSTANT_S, log)
+    windows, table, settings, stretches, chg, alarms = info.pop("example")
+    summary = summary_of(table, settings, stretches, chg, alarms, {})
+    paths = {"figure": out / "monitor_example.png"}
+    draw(windows, summary, paths["figure"])
+    throughput = throughput_table(bank, work, minutes=(0.25,) if quick else minutes, log=log)
+    text = acceptance_report(truth, changes, info, throughput, time.time() - start)
+    paths["report"] = out / "monitor.md"
+    write_bytes_atomic(paths["report"], text.encode())
+    for name, frame in (("stretches", truth), ("changes", changes), ("throughput", throughput)):
+        paths[name] = out / f"monitor_{name}.parquet"
+        buffer = frame.to_parquet()
+        write_bytes_atomic(paths[name], buffer)
+    return paths
