@@ -310,3 +310,57 @@ def test_output_location_refused(model_file, tmp_path, capsys):
     code = run_main(["monitor", "whatever.parquet", "--omega", "500", "--out", str(mine)])
     assert code == 2 and "--out" in capsys.readouterr().err
     assert (mine / "notes.txt").read_text() == "keep"
+
+
+def test_follow_stops_on_ctrl_c_and_writes(model_file, tiles, tmp_path):
+    """Ctrl-C ends --follow: what was analysed is written, exit 0."""
+    import signal
+
+    from tests.cli_run import start
+
+    t, r, _ = _record(tiles, [("low", 1.0)], seed=6)
+    path = _write(tmp_path / "live.csv", t, r)
+    out = tmp_path / "out"
+    proc = start("monitor", str(path), "--omega", "500", "--model", str(model_file), "--out",
+                 str(out), "--follow", "--quiet")  # fmt: skip
+    time.sleep(8.0)  # imports, the model, the file read; then it waits for more lines
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err
+    assert len(pd.read_parquet(out / "windows.parquet")) == 5
+
+
+def test_condition_output_becomes_a_change(tiles, tmp_path):
+    """A class output besides the regime (a bearing condition) is carried by the windows and
+    a change of it becomes a change and an alarm. The classifier is a real one: the model's
+    gradient-boosted classifier trained on the shipped windows to tell a measurement noise
+    above 0.4 % of the level from one below; the record's noise rises from 0.2 to 0.7 %."""
+    from signatelec.estimation.domain import Domain, domain_features
+    from signatelec.estimation.models import LoadStateModel
+    from signatelec.estimation.training import labels_of, model_features
+
+    table = pd.read_parquet(DEFAULT_TABLE)
+    y = labels_of(table)
+    y["condition"] = np.where(table["noise_rms_rel"] > 0.004, "noisy", "quiet").astype(object)
+    features = model_features()
+    est = LoadStateEstimator(max_iter=40, n_splits=2)
+    est.fit(table[features], y, groups=table["run_id"].to_numpy())
+    model = LoadStateModel(
+        est, features, {"coverage": est.coverage}, Domain.fit(table, domain_features(features))
+    )
+    t, r, truth = _record(tiles, [("low", 6.0), ("low", 6.0)], seed=7)
+    r[t >= truth[0]] += (
+        0.005
+        * r[t >= truth[0]]
+        * np.random.default_rng(8).standard_normal(int((t >= truth[0]).sum()))
+    )  # 0.2 % and 0.5 % in quadrature: 0.54 %
+    path = _write(tmp_path / "noise.parquet", t, r)
+    table_w = monitor_trace(path, model, MonitorSettings(omega_rad_s=OMEGA))
+    windows = table_w.frame()
+    assert {"condition", "condition_probability_noisy"} <= set(windows.columns)
+    stretches, changes, alarms = stretches_and_changes(windows, 0.2)
+    kinds = {a["kind"]: a for a in alarms}
+    assert "condition" in kinds and "load" not in kinds
+    assert kinds["condition"]["time_s"] == pytest.approx(truth[0], abs=0.2)
+    assert [s["condition"] for s in stretches] == ["quiet", "noisy"]

@@ -13,6 +13,19 @@ from signatelec.cli.common import (
 )
 
 
+def trace_columns(command):
+    """The options naming a trace file's time and resistance columns."""
+    command = click.option(
+        "--resistance-column",
+        default="resistance_ohm",
+        show_default=True,
+        help="Resistance column (ohm).",
+    )(command)
+    return click.option(
+        "--time-column", default="time_s", show_default=True, help="Time column (s)."
+    )(command)
+
+
 @cli.command()
 @click.argument("trace_file", metavar="TRACE", type=str)
 @click.option("--omega", "omega_rad_s", type=float, required=True, help="Inner-ring speed, rad/s.")
@@ -25,13 +38,7 @@ from signatelec.cli.common import (
     "training table, on first use).",
 )
 @click.option("--out", "out", type=str, default=None, help="Write the estimate: .json or .parquet.")
-@click.option("--time-column", default="time_s", show_default=True, help="Time column (s).")
-@click.option(
-    "--resistance-column",
-    default="resistance_ohm",
-    show_default=True,
-    help="Resistance column (ohm).",
-)
+@trace_columns
 @click.option("--quiet", is_flag=True, help="No summary.")
 def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_column, quiet):
     """Estimate F_r, epsilon, clearance and regime from a resistance trace (CSV or Parquet).
@@ -164,13 +171,7 @@ def train(dataset, out, quiet):
     help="Relative change of F_r that counts as a load change (and alarm).",
 )
 @click.option("--model", "model_path", type=str, default=None, help="Model file (as for estimate).")
-@click.option("--time-column", default="time_s", show_default=True, help="Time column (s).")
-@click.option(
-    "--resistance-column",
-    default="resistance_ohm",
-    show_default=True,
-    help="Resistance column (ohm).",
-)
+@trace_columns
 @click.option(
     "--follow", is_flag=True, help="Keep reading a CSV file as it grows; Ctrl-C ends and writes."
 )
@@ -252,6 +253,12 @@ def monitor(
     extra = {"false_alarm_rate_per_hour": false_alarm_rate, "load_threshold": load_threshold}
     summary = summary_of(table, settings, stretches, changes, alarms, extra)
     write_output(lambda: write_monitor(out, windows, summary))
+    if table.interrupted and not quiet:
+        click.echo(
+            f"signatelec: monitor: stopped following at Ctrl-C; wrote the {len(windows)} windows "
+            "analysed",
+            err=True,
+        )
     if not quiet:
         click.echo(format_summary(summary))
         click.echo(f"wrote {out}/windows.parquet, summary.json, monitor.png")
