@@ -36,7 +36,7 @@ from signatelec.estimation.monitor import MonitorSettings, monitor_trace
 from signatelec.estimation.persistence import save_model
 from signatelec.estimation.training import DEFAULT_TABLE, train_model
 from signatelec.physics.quasistatic import clearance_for_epsilon
-from signatelec.studies.monitor import whole_passes
+from signatelec.studies.monitor_records import whole_passes
 from tests.cli_run import run_main
 
 FS = 20000.0

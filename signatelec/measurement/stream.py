@@ -56,14 +56,16 @@ def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
     import pyarrow.parquet as pq
 
     try:
-        pf = pq.ParquetFile(path)
+        # without pre-buffering: with it, pyarrow keeps every column chunk read so far (the
+        # memory held grew by ~0.25 MB per second of a 50 kHz trace)
+        pf = pq.ParquetFile(path, pre_buffer=False)
     except (OSError, ValueError) as exc:
         raise TraceError(
             f"{where}: cannot be read as parquet ({str(exc).splitlines()[0]})"
         ) from None
     check_columns(pf.schema_arrow.names, names, where)
     row = 0
-    for batch in pf.iter_batches(batch_size=chunk_rows, columns=names):
+    for batch in pf.iter_batches(batch_size=chunk_rows, columns=names, use_threads=False):
         df = batch.to_pandas()
         yield _chunk(df, names, where, row)
         row += len(df)

@@ -92,7 +92,7 @@ def synthetic_record(path: Path, bank, minutes: float, fs: float = THROUGHPUT_RA
     import pyarrow.parquet as pq
     from scipy.signal import resample
 
-    from signatelec.studies.monitor import NOISE, OMEGA_RAD_S, SAMPLE_RATE_HZ, whole_passes
+    from signatelec.studies.monitor_records import NOISE, OMEGA_RAD_S, SAMPLE_RATE_HZ, whole_passes
 
     tiles = []
     for state in (4, 13):
