@@ -283,6 +283,9 @@ class _Windows:
             omega = omega_block
             if speed is not None:
                 omega = float(np.nanmean(speed[k * hop_n : k * hop_n + win_n]))
+                if not (math.isfinite(omega) and omega > 0):
+                    row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
+                    continue
             elif self.s.track_speed:
                 omega = self.tracked
             try:

@@ -114,6 +114,7 @@ def run_study(
     throughput = throughput_table(bank, work, minutes=(0.25,) if quick else minutes, log=log)
     text = acceptance_report(truth, changes, info, throughput, time.time() - start)
     paths["report"] = out / "monitor.md"
+    info["throughput"] = throughput.to_dict("records")
     write_bytes_atomic(paths["report"], text.encode())
     for name, frame in (("stretches", truth), ("changes", changes), ("throughput", throughput)):
         paths[name] = out / f"monitor_{name}.parquet"
