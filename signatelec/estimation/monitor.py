@@ -164,8 +164,8 @@ def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) 
 class _Windows:
     """Cuts the stream of samples into blocks of whole windows and estimates them."""
 
-    def __init__(self, settings, model, table, source, log):
-        self.s, self.model, self.table, self.source, self.log = settings, model, table, source, log
+    def __init__(self, settings, model, table, source):
+        self.s, self.model, self.table, self.source = settings, model, table, source
         self.t = np.empty(0)
         self.r = np.empty(0)
         self.v = None if settings.speed_column is None else np.empty(0)
@@ -339,7 +339,7 @@ def monitor_trace(
         raise TraceError(f"--omega {s.omega_rad_s!r}: must be a finite speed > 0 rad/s")
     table = WindowTable()
     source = f"trace {str(path)!r}"
-    cutter = _Windows(s, model, table, source, progress)
+    cutter = _Windows(s, model, table, source)
     chunks = read_chunks(
         path,
         s.time_column,

@@ -2,19 +2,18 @@
 
 :func:`run_study` (``signatelec study monitor --out docs/monitor``):
 
-1. **bank** (:func:`dem_bank`): :data:`BANK_STATES` held-out load states of the seed's 6208 at
-   500 rad/s, a third per regime, drawn like the training design (``datasets/load_state.toml``:
-   F_r log-uniform over 2500-12500 N, preload at epsilon 0.505-0.6, zero clearance, clearance at
-   epsilon 0.3-0.495), each one DEM run at the paper's fidelity (velocity Verlet, dt = 1e-7 s)
-   with :data:`STEADY_S` of steady trace after :data:`SETTLE_S` of settling, clean, at 20 kHz;
-   cached under the bank directory (``/tmp`` by default);
-2. **records** (:func:`assemble_record`): stretches of 2-10 s, each a bank state whose steady
-   segment, cut at a whole number of ball passes (its found f_bp) so that the ripple continues
-   across the seam, is tiled to the stretch's length; consecutive states differ by a load step
-   of 10-50 % or by the regime; then independent white noise of :data:`NOISE` of the level per
-   sample. One record ends on a constant stretch of 60 s (the false-alarm check);
-3. **monitor** each record (:func:`signatelec.estimation.monitor.monitor_trace`) and compare:
-   change times, per-stretch F_r, regime and interval coverage (:mod:`monitor_metrics`).
+1. **bank** (:func:`~signatelec.studies.monitor_records.dem_bank`): held-out load states of the
+   seed's 6208 at 500 rad/s, a third per regime, drawn like the training design
+   (``datasets/load_state.toml``), one DEM run each at the paper's fidelity (velocity Verlet,
+   dt = 1e-7 s), steady trace at 20 kHz, cached under the bank directory (``/tmp`` by default);
+2. **records** (:func:`~signatelec.studies.monitor_records.assemble_record`): :data:`N_RECORDS`
+   records of :data:`N_STRETCHES` stretches of 2-10 s and a final constant stretch of
+   :data:`CONSTANT_S` (the false-alarm check), each stretch a state's steady segment tiled,
+   with independent white noise;
+3. **monitor** each record (:func:`signatelec.estimation.monitor.monitor_trace`) and compare
+   change times, per-stretch F_r, regime and interval coverage with the truth, then the
+   throughput and peak memory of ``signatelec monitor`` on synthetic 50 kHz records of 1, 10
+   and 60 minutes (:mod:`signatelec.studies.monitor_metrics`).
 """
 
 from __future__ import annotations
