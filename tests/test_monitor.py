@@ -278,6 +278,7 @@ def test_follow_a_growing_csv(model_file, tiles, tmp_path):
         ("text", ["--omega", "500"], "holds text at row 7"),
         ("short", ["--omega", "500"], "shorter than one --window"),
         ("missing", ["--omega", "500"], "no such file"),
+        ("unlike", ["--omega", "500"], "none of its 3 windows carries an estimate"),
     ],
 )
 def test_bad_input(model_file, tiles, tmp_path, capsys, case, args, expected):
@@ -287,6 +288,8 @@ def test_bad_input(model_file, tiles, tmp_path, capsys, case, args, expected):
         "mohm": _write(tmp_path / "mohm.parquet", t, r * 1e3),
         "short": _write(tmp_path / "short.parquet", t[:100], r[:100]),
         "missing": tmp_path / "none.parquet",
+        # a pure cosine at f_bp, noise-free: unlike every training trace
+        "unlike": _write(tmp_path / "unlike.parquet", t, 3e-3 * (1 + 1e-3 * np.cos(2575.0 * t))),
     }
     text = pd.DataFrame({"time_s": t, "resistance_ohm": r.astype(object)})
     text.loc[7, "resistance_ohm"] = "abc"

@@ -359,6 +359,12 @@ def monitor_trace(
             raise
         table.interrupted = True
     cutter.finish()
+    windows = table.frame()
+    if len(windows) and not (windows["status"] == "ok").any():
+        raise TraceError(
+            f"{source}: none of its {len(windows)} windows carries an estimate; the first: "
+            f"{windows['status'].iloc[0]}"
+        )
     if not table.parts:
         raise TraceError(
             f"{source}: {table.n_samples} samples, shorter than one --window of {s.window_s:g} s"

@@ -75,6 +75,11 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict) -> dict
     )
 
 
+def _legend(ax) -> None:
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper right", fontsize=8)
+
+
 def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     from signatelec.plots import new_figure, save_figure
 
@@ -93,7 +98,7 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
         )
         ax.plot(t, ok["level_mean_ohm"] * 1e3, "k-", lw=0.8, label="window mean")
     ax.set_ylabel("resistance (mOhm)")
-    ax.legend(loc="upper right", fontsize=8)
+    _legend(ax)
     ax = axes[1]
     if t.size:
         ax.fill_between(
@@ -118,7 +123,7 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
         )
         ax.plot([s["start_s"], s["end_s"]], [s["radial_load_n"]] * 2, "C3-", lw=1.5)
     ax.set_ylabel("F_r (N)")
-    ax.legend(loc="upper right", fontsize=8)
+    _legend(ax)
     ax = axes[2]
     probs = [c for c in ok.columns if c.startswith("regime_probability_")]
     for j, c in enumerate(probs):
@@ -132,7 +137,7 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     ax.set_ylim(-0.02, 1.02)
     ax.set_ylabel("regime probability")
     ax.set_xlabel("time (s)")
-    ax.legend(loc="upper right", fontsize=8)
+    _legend(ax)
     for alarm in summary["alarms"]:
         for a in axes:
             a.axvline(
