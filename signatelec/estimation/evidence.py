@@ -4,7 +4,10 @@
 likelihood-ratio statistic for a change of mean (Basseville & Nikiforov 1993, *Detection of
 Abrupt Changes*, section 2.4; binary segmentation: Vostrikova 1981) on the standardised series
 of :func:`detector_series`: log level, log F_r, epsilon, the ripple's first two harmonics and
-the log-odds of each class output (the regime; a bearing condition when the model has one).
+the log-odds of each class output but the regime (a bearing condition, when the model has
+one); the regime follows epsilon and the ripple, and its classifier's log-odds only add their
+scatter where a state lies on a regime boundary (a held-out state 1 um from preload split into
+spurious zero/preload stretches with them).
 The series are whitened with the covariance of their within-stretch residuals and scaled by
 their long-run variance (Bartlett window over the residuals' autocorrelation), so that
 correlated windows do not pass for independent evidence. The statistic of a split at k of a
@@ -70,17 +73,27 @@ def detector_series(windows: pd.DataFrame) -> np.ndarray:
         cols.append(windows[name].to_numpy(float))
     for name in CLASS_OUTPUTS:
         pc = class_columns(windows, name)
-        if len(pc) > 1:
+        # the regime follows epsilon and the ripple, already here: its classifier's log-odds
+        # would add only their heavy-tailed scatter where a state sits between two regimes
+        if len(pc) > 1 and name != "regime":
             logp = np.log(np.clip(windows[pc].to_numpy(float), 1e-6, 1.0))
             cols.extend((logp - logp.mean(axis=1, keepdims=True))[:, :-1].T)
     return np.column_stack(cols)
 
 
 def _robust_scale(x: np.ndarray) -> np.ndarray:
-    """Per column: sigma from the MAD of first differences (a step moves one difference)."""
+    """Per column: sigma from the MAD of first differences (a step moves one difference); for
+    a column that is piecewise constant (a classifier's output takes few values), the standard
+    deviation of its differences; 1 for a constant column."""
     d = np.diff(x, axis=0)
     s = 1.4826 * np.median(np.abs(d - np.median(d, axis=0)), axis=0) / math.sqrt(2.0)
+    s = np.where(s > 0, s, d.std(axis=0) / math.sqrt(2.0))
     return np.where(s > 0, s, 1.0)
+
+
+#: Smallest variance of a whitened direction, in units of the standardised series: a series
+#: constant within every stretch (a saturated classifier) keeps its steps as evidence.
+MIN_VARIANCE = 1e-3
 
 
 def effective_fraction(x: np.ndarray) -> float:
@@ -147,20 +160,21 @@ def _segment(z: np.ndarray, alpha_per_split: float) -> list[tuple[int, float]]:
 
 
 def _whiten(x: np.ndarray, changes: list[int]) -> np.ndarray:
-    """Whiten with the covariance of the within-segment residuals, and divide by the square
-    root of their long-run variance factor (the median over columns of n / n_eff)."""
+    """Whiten standardised series with the covariance of their within-segment residuals (each
+    direction's variance at least :data:`MIN_VARIANCE`), and divide by the square root of
+    their long-run variance factor (the median over columns of n / n_eff)."""
     edges = [0, *changes, x.shape[0]]
     res = np.vstack(
         [x[a:b] - x[a:b].mean(axis=0) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
     )
     cov = np.cov(res, rowvar=False) if res.shape[0] > res.shape[1] + 1 else None
     if cov is None or not np.all(np.isfinite(cov)):
-        return x / _robust_scale(x)
+        return x
     cov = np.atleast_2d(cov)
     w, v = np.linalg.eigh(cov)
-    keep = w > 1e-9 * max(w.max(), 1e-300)
-    white = x @ v[:, keep] / np.sqrt(w[keep])
-    wres = res @ v[:, keep] / np.sqrt(w[keep])
+    w = np.maximum(w, MIN_VARIANCE)
+    white = x @ v / np.sqrt(w)
+    wres = res @ v / np.sqrt(w)
     factor = np.median([1.0 / effective_fraction(wres[:, j]) for j in range(wres.shape[1])])
     return white / math.sqrt(factor)
 
@@ -177,8 +191,9 @@ def change_points(
     if x.shape[0] < 2 * MIN_SEGMENT:
         return []
     alpha = min(0.5, false_alarm_per_hour * hop_s / 3600.0)
-    first = _segment(x / _robust_scale(x), alpha)
-    second = _segment(_whiten(x, [k for k, _ in first]), alpha)
+    z = x / _robust_scale(x)
+    first = _segment(z, alpha)
+    second = _segment(_whiten(z, [k for k, _ in first]), alpha)
     return [(int(rows[k]), 1.0 - p) for k, p in second]
 
 
