@@ -322,6 +322,37 @@ def test_trace_garbage(capsys, default_model, data, suffix, out_suffix):
     check_trace(capsys, lambda path: write_input(path, data), suffix, "500", out_suffix)
 
 
+def monitor_complete(out: Path) -> bool:
+    import json
+
+    names_ = set(os.listdir(out))
+    if names_ != {".signatelec.json", "windows.parquet", "summary.json", "monitor.png"}:
+        return False
+    summary = json.loads((out / "summary.json").read_text())
+    return summary["trace"]["windows"] > 0
+
+
+@fuzz_settings(100)
+@given(
+    table=trace_tables(),
+    suffix=st.sampled_from([".csv", ".parquet", ".txt"]),
+    omega=omegas,
+    window=st.sampled_from(["0.2", "0.05", "0.01", "1e-9", "nan", "-1"]),
+)
+def test_monitor_traces(capsys, default_model, table, suffix, omega, window):
+    """``signatelec monitor`` keeps the same contract on the traces ``estimate`` is fuzzed with."""
+    with tempfile.TemporaryDirectory(prefix="fuzz-") as tmp:
+        workdir = Path(tmp)
+        path = workdir / f"trace{suffix}"
+        write_trace(path, table)
+        out = workdir / "monitor"
+        argv = ["monitor", str(path), "--omega", omega, "--window", window, "--out", str(out)]
+        argv.append("--quiet")
+        before = set(os.listdir(workdir))
+        code, _, err = run_in_process(capsys, argv)
+        assert_contract(code, err, workdir, before, out, argv, monitor_complete)
+
+
 # --- the same contract seen from a process ----------------------------------------------------
 
 

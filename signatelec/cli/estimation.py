@@ -13,6 +13,19 @@ from signatelec.cli.common import (
 )
 
 
+def trace_columns(command):
+    """The options naming a trace file's time and resistance columns."""
+    command = click.option(
+        "--resistance-column",
+        default="resistance_ohm",
+        show_default=True,
+        help="Resistance column (ohm).",
+    )(command)
+    return click.option(
+        "--time-column", default="time_s", show_default=True, help="Time column (s)."
+    )(command)
+
+
 @cli.command()
 @click.argument("trace_file", metavar="TRACE", type=str)
 @click.option("--omega", "omega_rad_s", type=float, required=True, help="Inner-ring speed, rad/s.")
@@ -25,13 +38,7 @@ from signatelec.cli.common import (
     "training table, on first use).",
 )
 @click.option("--out", "out", type=str, default=None, help="Write the estimate: .json or .parquet.")
-@click.option("--time-column", default="time_s", show_default=True, help="Time column (s).")
-@click.option(
-    "--resistance-column",
-    default="resistance_ohm",
-    show_default=True,
-    help="Resistance column (ohm).",
-)
+@trace_columns
 @click.option("--quiet", is_flag=True, help="No summary.")
 def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_column, quiet):
     """Estimate F_r, epsilon, clearance and regime from a resistance trace (CSV or Parquet).
@@ -129,3 +136,160 @@ def train(dataset, out, quiet):
             f"trained on {info['n_rows']} traces of {info['n_runs']} runs "
             f"({', '.join(info['targets'])}) in {info['fit_s']:.1f} s; wrote {out}"
         )
+
+
+@cli.command()
+@click.argument("trace_file", metavar="TRACE", type=str)
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option("--omega", "omega_rad_s", type=float, default=None, help="Inner-ring speed, rad/s.")
+@click.option(
+    "--speed-column",
+    default=None,
+    help="Column of the inner-ring speed (rad/s) per sample, instead of --omega.",
+)
+@click.option(
+    "--track-speed",
+    is_flag=True,
+    help="Follow a slowly varying speed from the ball-pass frequency, starting at --omega.",
+)
+@click.option("--window", "window_s", type=float, default=0.2, show_default=True, help="Window, s.")
+@click.option(
+    "--hop", "hop_s", type=float, default=None, help="Hop between windows, s (default: --window)."
+)
+@click.option(
+    "--false-alarm-rate",
+    type=float,
+    default=0.1,
+    show_default=True,
+    help="Expected false changes per hour of trace (sets the change detector's threshold).",
+)
+@click.option(
+    "--load-threshold",
+    type=float,
+    default=0.05,
+    show_default=True,
+    help="Relative change of F_r that counts as a load change (and alarm).",
+)
+@click.option("--model", "model_path", type=str, default=None, help="Model file (as for estimate).")
+@trace_columns
+@click.option(
+    "--follow", is_flag=True, help="Keep reading a CSV file as it grows; Ctrl-C ends and writes."
+)
+@click.option(
+    "--idle",
+    "idle_s",
+    type=float,
+    default=None,
+    help="With --follow: also end when the file has not grown for this many seconds.",
+)
+@click.option("--quiet", is_flag=True, help="No progress or summary.")
+def monitor(
+    trace_file, out, omega_rad_s, speed_column, track_speed, window_s, hop_s, false_alarm_rate,
+    load_threshold, model_path, time_column, resistance_column, follow, idle_s, quiet,
+):  # fmt: skip
+    """Monitor a long resistance trace: per-window load state, stretches, changes and alarms.
+
+    Reads TRACE (CSV or Parquet) in chunks, so any length fits in memory; writes
+    DIR/windows.parquet (one row per window), DIR/summary.json (stretches, changes, alarms)
+    and DIR/monitor.png.
+    """
+    from signatelec.cli.common import claim_output, write_output
+    from signatelec.estimation.evidence import stretches_and_changes
+    from signatelec.estimation.monitor import MonitorSettings, monitor_trace
+    from signatelec.estimation.monitor_report import (
+        COMMAND,
+        format_summary,
+        summary_of,
+        write_monitor,
+    )
+    from signatelec.estimation.persistence import ModelError, default_model, load_model
+    from signatelec.io import input_size_problem
+    from signatelec.measurement.traces import TraceError
+
+    if (omega_rad_s is None) == (speed_column is None):
+        raise InputError("give the speed one way: --omega RAD_S or --speed-column NAME")
+    if track_speed and omega_rad_s is None:
+        raise InputError("--track-speed starts from --omega RAD_S; give it")
+    for name, value, lo, hi in (
+        ("--false-alarm-rate", false_alarm_rate, 0.0, 3600.0),
+        ("--load-threshold", load_threshold, 0.0, 10.0),
+    ):
+        if not lo < value <= hi:
+            raise InputError(f"{name} {value!r}: must be in ({lo:g}, {hi:g}]")
+    if idle_s is not None and not idle_s > 0:
+        raise InputError(f"--idle {idle_s!r}: must be > 0 s")
+    problem = input_size_problem(trace_file, 1 << 62)
+    if problem:
+        raise InputError(f"trace {trace_file!r}: {problem}")
+    claim_output(out, COMMAND)
+    try:
+        model = (
+            load_model(model_path)
+            if model_path
+            else default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
+        )
+    except ModelError as exc:
+        raise InputError(str(exc)) from None
+    settings = MonitorSettings(
+        omega_rad_s=omega_rad_s,
+        speed_column=speed_column,
+        track_speed=track_speed,
+        window_s=window_s,
+        hop_s=hop_s,
+        time_column=time_column,
+        resistance_column=resistance_column,
+        follow=follow,
+        follow_idle_s=idle_s,
+    )
+    progress = None if quiet else _progress_printer(trace_file)
+    try:
+        table = monitor_trace(trace_file, model, settings, progress=progress)
+    except TraceError as exc:
+        raise InputError(str(exc)) from None
+    windows = table.frame()
+    stretches, changes, alarms = stretches_and_changes(
+        windows, settings.hop, false_alarm_rate, load_threshold
+    )
+    extra = {"false_alarm_rate_per_hour": false_alarm_rate, "load_threshold": load_threshold}
+    summary = summary_of(table, settings, stretches, changes, alarms, extra)
+    write_output(lambda: write_monitor(out, windows, summary))
+    if table.interrupted and not quiet:
+        click.echo(
+            f"signatelec: monitor: stopped following at Ctrl-C; wrote the {len(windows)} windows "
+            "analysed",
+            err=True,
+        )
+    if not quiet:
+        click.echo(format_summary(summary))
+        click.echo(f"wrote {out}/windows.parquet, summary.json, monitor.png")
+
+
+def _progress_printer(trace_file: str, every_s: float = 2.0):
+    """Progress lines on stderr, at most one per ``every_s`` of wall time."""
+    import time
+
+    total = None
+    if trace_file.lower().endswith((".parquet", ".pq")):
+        try:
+            import pyarrow.parquet as pq
+
+            total = pq.ParquetFile(trace_file).metadata.num_rows
+        except (OSError, ValueError):
+            total = None
+    last = [time.monotonic()]
+
+    def show(table) -> None:
+        now = time.monotonic()
+        if now - last[0] < every_s or not table.sample_rate_hz:
+            return
+        last[0] = now
+        seconds = table.n_samples / table.sample_rate_hz
+        share = f" ({table.n_samples / total:.0%})" if total else ""
+        speed = seconds / table.cpu_s if table.cpu_s > 0 else float("inf")
+        click.echo(
+            f"signatelec: monitor: {seconds:.1f} s of trace read{share}, {table.n_windows} "
+            f"windows estimated, {speed:.0f}x real time",
+            err=True,
+        )
+
+    return show

@@ -116,3 +116,44 @@ def lubrication_regimes(out, quick, quiet):
     if not quiet:
         for path in paths.values():
             click.echo(f"wrote {path}")
+
+
+@study.command("monitor")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option(
+    "--bank",
+    "bank_dir",
+    type=str,
+    default="/tmp/monitor-bank",
+    show_default=True,
+    help="Where the DEM runs of the bank are cached (and the records written for a while).",
+)
+@click.option("--quick", is_flag=True, help="Two short records and a 15 s throughput run.")
+@click.option("--quiet", is_flag=True, help="No progress or file list.")
+def monitor_study(out, bank_dir, quick, quiet):
+    """Monitoring on long records assembled from paper-fidelity DEM runs, and its throughput
+    and memory at 1, 10 and 60 minutes of 50 kHz trace: DIR/monitor.md, parquet tables, PNG."""
+    from signatelec.io import holds_only, write_marker
+    from signatelec.studies.monitor import run_study
+
+    own = (
+        "monitor.md",
+        "monitor_example.png",
+        "monitor_stretches.parquet",
+        "monitor_changes.parquet",
+        "monitor_throughput.parquet",
+    )
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, "study monitor", previous=previous, replaced=False)
+    try:
+        paths = run_study(out, bank_dir, quick=quick, log=None if quiet else click.echo)
+        write_marker(out, "study monitor")
+    except OSError as exc:
+        raise Stopped(
+            f"--out {out!r}: cannot write there ({exc.strerror or exc}); the DEM runs are kept "
+            f"in {bank_dir}: rerun the same command to resume",
+            EXIT_INCOMPLETE,
+        ) from None
+    if not quiet:
+        for path in paths.values():
+            click.echo(f"wrote {path}")

@@ -123,6 +123,43 @@ class TraceColumns(NamedTuple):
     phase: np.ndarray | None = None
 
 
+def check_columns(columns, wanted, where: str, options: dict | None = None) -> None:
+    """TraceError naming the first of ``wanted`` missing from ``columns`` and the option that
+    names it (``options``: column -> option; by default the time and resistance options,
+    whatever the names given, in the order time, resistance, then ``--speed-column``)."""
+    columns = list(columns)
+    default = ("--time-column", "--resistance-column", "--speed-column")
+    for i, column in enumerate(wanted):
+        if column not in columns:
+            option = (options or {}).get(column, default[min(i, len(default) - 1)])
+            # repr: a name holding a line break or control character stays on the one line
+            have = ", ".join(map(repr, columns[:8])) + (", ..." if len(columns) > 8 else "")
+            raise TraceError(
+                f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
+            )
+
+
+def numeric_column(raw, column: str, where: str, first_row: int = 0) -> np.ndarray:
+    """A column as floats: empty cells and "nan" become NaN (missing samples, repaired or
+    refused later), other text is refused naming its row (counted from ``first_row``)."""
+    import pandas as pd
+
+    try:
+        number = pd.to_numeric(raw, errors="coerce")
+    except OverflowError:  # an integer cell beyond the float range, read as a Python int
+        number = pd.to_numeric(raw.astype(str), errors="coerce")  # +-inf, as "1e400" is
+    text = number.isna() & raw.notna()
+    if text.any():
+        text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
+    if text.any():
+        row = int(np.flatnonzero(text.to_numpy())[0])
+        raise TraceError(
+            f"{where}: column {column!r} holds text at row {first_row + row} "
+            f"({str(raw.iloc[row])[:20]!r}); numbers only (empty or nan for a missing sample)"
+        )
+    return number.to_numpy(dtype=float)
+
+
 def read_trace(
     path: str | Path,
     time_column: str = "time_s",
@@ -154,33 +191,8 @@ def read_trace(
         # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell)
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise TraceError(f"{where}: cannot be read as {suffix[1:]} ({text})") from None
-    for column, option in (
-        (time_column, "--time-column"),
-        (resistance_column, "--resistance-column"),
-    ):
-        if column not in df.columns:
-            # repr: a name holding a line break or control character stays on the one line
-            have = ", ".join(map(repr, df.columns[:8])) + (", ..." if len(df.columns) > 8 else "")
-            raise TraceError(
-                f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
-            )
-    values = []
-    for column in (time_column, resistance_column):
-        raw = df[column]
-        try:
-            number = pd.to_numeric(raw, errors="coerce")
-        except OverflowError:  # an integer cell beyond the float range, read as a Python int
-            number = pd.to_numeric(raw.astype(str), errors="coerce")  # +-inf, as "1e400" is
-        # empty cells and "nan" are missing samples (repaired or refused later); other text is not
-        text = number.isna() & raw.notna()
-        text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
-        if text.any():
-            row = int(np.flatnonzero(text.to_numpy())[0])
-            raise TraceError(
-                f"{where}: column {column!r} holds text at row {row} "
-                f"({str(raw.iloc[row])[:20]!r}); numbers only (empty or nan for a missing sample)"
-            )
-        values.append(number.to_numpy(dtype=float))
+    check_columns(df.columns, (time_column, resistance_column), where)
+    values = [numeric_column(df[c], c, where) for c in (time_column, resistance_column)]
     phase = df[phase_column].astype(str).to_numpy() if phase_column in df.columns else None
     return TraceColumns(values[0], values[1], phase)
 

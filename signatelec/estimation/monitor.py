@@ -1,0 +1,372 @@
+"""Monitoring a long trace: the load state window by window, then stretches, changes and alarms.
+
+:func:`monitor_trace` reads a trace file in chunks (:func:`signatelec.measurement.stream.
+read_chunks`: memory bounded whatever the file's length, or a CSV file followed as it grows),
+cuts it into windows of ``window_s`` every ``hop_s`` and estimates each as ``signatelec
+estimate`` does (:mod:`signatelec.estimation.estimate`: the same features, in-domain score and
+model), the model asked once per block of windows. The trace's reading and sanity checks are
+those of ``estimate``, applied per block of :data:`BLOCK_S`: each block is repaired or refused
+by :func:`~signatelec.measurement.traces.prepare_trace` and its first :data:`SCREEN_S` screened
+for the level and the ball-pass line (:func:`~signatelec.measurement.sanity.check_level`,
+:func:`~signatelec.measurement.ripple.find_ripple`). A first block that is refused refuses the
+trace (one line: wrong column, unit, speed, ...); a later one is kept as windows with a
+``status`` saying why they carry no estimate. The set-up-transient trim of ``estimate`` is not
+applied: a level step is what a monitor looks for.
+
+The speed of each window: ``omega_rad_s`` (constant), the mean of a speed column over the
+window, or, with ``track_speed``, the ball-pass frequency found in the previous window
+(the estimate searches +-1 % around the expected one, so the speed may drift by up to ~1 %
+per window).
+
+The per-window table then goes to :mod:`signatelec.estimation.evidence` (change points,
+stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the output directory.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
+from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
+from signatelec.estimation.features import trace_features
+from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
+from signatelec.measurement.ripple import find_ripple
+from signatelec.measurement.sanity import check_level
+from signatelec.measurement.stream import CHUNK_ROWS, read_chunks
+from signatelec.measurement.traces import TraceError, prepare_trace
+from signatelec.physics.kinematics import expected_ball_pass_hz
+
+#: Default window and hop, s: 200 ms windows are the longest of the training windows
+#: (docs/load_state: 88 % regime accuracy per window there, against 79 % at 50 ms).
+WINDOW_S = 0.2
+#: Trace per block of windows: repaired and screened together.
+BLOCK_S = 2.0
+#: Windows whose features the model is asked about in one batch (one thread: scikit-learn's
+#: threaded prediction of a few hundred rows is ~10x slower on busy cores, and 100 rows take
+#: ~0.25 ms each against ~1 ms one block of 10 at a time).
+BATCH_WINDOWS = 100
+#: Length of each block's ripple and level screening (the ripple search costs ~T^2).
+SCREEN_S = 0.5
+#: Features kept per window beside the estimate (the change detector reads some).
+KEPT_FEATURES = (
+    "level_mean_ohm",
+    "noise_rms_rel",
+    "h1_rel",
+    "h2_rel",
+    "h2_even_rel",
+    "ball_pass_found_hz",
+)
+#: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
+#: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
+TRACK_MIN_SNR = 25.0
+#: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
+TYPICAL_SLIP = -0.001
+
+
+@dataclass
+class MonitorSettings:
+    """What :func:`monitor_trace` does with a trace (see the module docstring)."""
+
+    omega_rad_s: float | None = None
+    speed_column: str | None = None
+    track_speed: bool = False
+    window_s: float = WINDOW_S
+    hop_s: float | None = None
+    time_column: str = "time_s"
+    resistance_column: str = "resistance_ohm"
+    follow: bool = False
+    follow_idle_s: float | None = None
+    chunk_rows: int = CHUNK_ROWS
+
+    @property
+    def hop(self) -> float:
+        return self.window_s if self.hop_s is None else self.hop_s
+
+
+@dataclass
+class WindowTable:
+    """The windows analysed so far and what the trace looked like."""
+
+    parts: list[pd.DataFrame] = field(default_factory=list)
+    sample_rate_hz: float | None = None
+    n_samples: int = 0
+    notes: list[str] = field(default_factory=list)
+    cpu_s: float = 0.0
+    interrupted: bool = False
+
+    @property
+    def n_windows(self) -> int:
+        return sum(len(p) for p in self.parts)
+
+    def frame(self) -> pd.DataFrame:
+        if not self.parts:
+            return pd.DataFrame()
+        return pd.concat(self.parts, ignore_index=True)
+
+
+def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float | None):
+    if speed is not None:
+        return float(np.nanmean(speed))
+    if settings.track_speed and tracked is not None:
+        return tracked
+    return float(settings.omega_rad_s)
+
+
+def _screen(trace, omega, model: LoadStateModel, first: bool):
+    """(ripple status, note) of a block's first SCREEN_S, or TraceError."""
+    n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
+    r = trace.resistance_ohm[:n]
+    note = None
+    if model.domain is not None:
+        note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
+    ripple = find_ripple(r, trace.sample_rate_hz, omega)
+    if ripple.status in ("elsewhere", "constant"):
+        raise TraceError(f"{trace.source}: {ripple.problem()}")
+    return ripple.status, note if first else None
+
+
+def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) -> None:
+    """The model's estimates of a batch of windows, asked once, written into ``rows``."""
+    from threadpoolctl import threadpool_limits
+
+    if not feats:
+        return
+    X = pd.DataFrame(feats)
+    with threadpool_limits(1):
+        pred = model.predict_frame(X)
+    scores = np.ones(len(X))
+    if model.domain is not None:
+        d = model.domain
+        z = (X[list(d.features)].to_numpy(float) - d.centre) / d.scale
+        d2 = np.einsum("ij,jk,ik->i", z, d.precision, z)
+        scores = np.array([d.score_of_distance(float(v)) for v in d2])
+    coverage = model.info.get("coverage", DEFAULT_COVERAGE)
+    probs = [c for c in pred.columns if c.startswith("regime_probability_")]
+    for i, row in enumerate(rows):
+        out = pred.iloc[i].to_dict()
+        out["in_domain_score"] = float(scores[i])
+        out["interval_coverage"] = coverage
+        if probs:
+            top = max(out[c] for c in probs)
+            out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and row["ripple"] != "none"
+        limit = NO_LINE_REFUSE_SCORE if row["ripple"] == "none" else REFUSE_SCORE
+        if scores[i] < limit:
+            row["status"] = f"out of domain (in-domain score {scores[i]:.2g} < {limit:g})"
+        row.update(out)
+
+
+class _Windows:
+    """Cuts the stream of samples into blocks of whole windows and estimates them."""
+
+    def __init__(self, settings, model, table, source):
+        self.s, self.model, self.table, self.source = settings, model, table, source
+        self.t = np.empty(0)
+        self.r = np.empty(0)
+        self.v = None if settings.speed_column is None else np.empty(0)
+        self.next_window = 0  # index of the next window
+        self.t0 = None
+        self.fs = None
+        self.tracked = settings.omega_rad_s
+        self.first = True
+        self.pending: list[dict] = []  # windows waiting for the model: (row, features)
+        self.pending_feats: list[dict] = []
+
+    def add(self, chunk) -> None:
+        self.t = np.concatenate([self.t, chunk.time_s])
+        self.r = np.concatenate([self.r, chunk.resistance_ohm])
+        if self.v is not None:
+            self.v = np.concatenate([self.v, chunk.speed_rad_s])
+        self.table.n_samples += chunk.time_s.size
+        if self.fs is None and self.t.size >= 64:
+            step = float(np.nanmedian(np.diff(self.t[:4096])))
+            if not step > 0.0:
+                raise TraceError(f"{self.source}: time does not increase at the start")
+            self.fs = 1.0 / step
+            self.table.sample_rate_hz = self.fs
+            self.t0 = float(self.t[np.isfinite(self.t)][0])
+            if self.s.window_s * self.fs < 16:
+                raise TraceError(
+                    f"--window {self.s.window_s:g}: {self.s.window_s * self.fs:.1f} samples at "
+                    f"{self.fs:.6g} Hz; a window needs at least 16"
+                )
+        while self.fs is not None and self._block(final=False):
+            pass
+
+    def finish(self) -> None:
+        while self.fs is not None and self._block(final=True):
+            pass
+        self.flush()
+
+    def flush(self) -> None:
+        """Ask the model about the pending windows and file them in the table."""
+        clock = time.process_time()
+        ok = [row for row in self.pending if "omega_rad_s" in row]
+        _estimate_batch(ok, self.pending_feats, self.model)
+        if self.pending:
+            self.table.parts.append(pd.DataFrame(self.pending))
+        self.pending, self.pending_feats = [], []
+        self.table.cpu_s += time.process_time() - clock
+
+    def _block(self, final: bool) -> bool:
+        """Estimate the next block of windows if the samples are there; False if not."""
+        hop, win = self.s.hop, self.s.window_s
+        n_per = max(1, int(round(BLOCK_S / hop)))
+        start = self.t0 + self.next_window * hop
+        end_needed = start + (n_per - 1) * hop + win
+        if not self.t.size:
+            return False
+        last = self.t[-1]
+        if last < end_needed:
+            if not final:
+                return False
+            n_per = int(math.floor((last + 1.0 / self.fs - start - win) / hop + 1e-9)) + 1
+            if n_per < 1:
+                return False
+            end_needed = start + (n_per - 1) * hop + win
+        lo = int(np.searchsorted(self.t, start - 0.5 / self.fs))
+        hi = int(np.searchsorted(self.t, end_needed - 0.5 / self.fs))
+        self._estimate(lo, hi, start, n_per)
+        self.next_window += n_per
+        keep = int(np.searchsorted(self.t, self.t0 + self.next_window * hop - 0.5 / self.fs))
+        self.t, self.r = self.t[keep:], self.r[keep:]
+        if self.v is not None:
+            self.v = self.v[keep:]
+        return True
+
+    def _estimate(self, lo, hi, start, n_per) -> None:
+        clock = time.process_time()
+        speed = None if self.v is None else self.v[lo:hi]
+        omega_block = _omega_of(self.s, speed, self.tracked)
+        where = f"{self.source} at t = {start:.6g} s"
+        hop_n = int(round(self.s.hop * self.fs))
+        win_n = int(round(self.s.window_s * self.fs))
+        rows, feats, status, ripple = [], [], "ok", "unchecked"
+        try:
+            if not (math.isfinite(omega_block) and omega_block > 0):
+                raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
+            trace = prepare_trace(
+                self.t[lo:hi],
+                self.r[lo:hi],
+                omega_block,
+                source=where if not self.first else self.source,
+            )
+            ripple, note = _screen(trace, omega_block, self.model, self.first)
+            if note:
+                self.table.notes.append(note)
+        except TraceError as exc:
+            if self.first:
+                raise
+            status, trace = f"refused: {exc}", None
+        self.first = False
+        for k in range(n_per):
+            t_start = start + k * self.s.hop
+            row = {
+                "start_s": t_start,
+                "end_s": t_start + self.s.window_s,
+                "time_s": t_start + 0.5 * self.s.window_s,
+                "status": status,
+                "ripple": ripple,
+            }
+            rows.append(row)
+            if trace is None:
+                continue
+            seg = trace.resistance_ohm[k * hop_n : k * hop_n + win_n]
+            if seg.size < 0.9 * win_n:
+                row["status"] = "refused: window cut short by a repair"
+                continue
+            omega = omega_block
+            if speed is not None:
+                omega = float(np.nanmean(speed[k * hop_n : k * hop_n + win_n]))
+                if not (math.isfinite(omega) and omega > 0):
+                    row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
+                    continue
+            elif self.s.track_speed:
+                omega = self.tracked
+            try:
+                f = trace_features(seg, trace.sample_rate_hz, omega)
+            except ValueError as exc:
+                row["status"] = f"refused: {exc}"
+                continue
+            row.update(
+                omega_rad_s=omega,
+                resistance_min_ohm=float(seg.min()),
+                resistance_max_ohm=float(seg.max()),
+                **{name: f[name] for name in KEPT_FEATURES},
+            )
+            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
+                # the found line predicts the next window's speed (kinematics are linear in it)
+                self.tracked = f["ball_pass_found_hz"] / (
+                    expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)
+                )
+            feats.append(f)
+        self.pending.extend(rows)
+        self.pending_feats.extend(feats)
+        self.table.cpu_s += time.process_time() - clock
+        if len(self.pending) >= BATCH_WINDOWS:
+            self.flush()
+
+
+def monitor_trace(
+    path,
+    model: LoadStateModel,
+    settings: MonitorSettings,
+    progress: Callable[[WindowTable], None] | None = None,
+) -> WindowTable:
+    """The per-window estimates of a trace file (module docstring). Raises TraceError (one
+    line) when the trace or its first block is refused; Ctrl-C while following ends the reading
+    and keeps what was analysed (``interrupted``)."""
+    s = settings
+    if s.omega_rad_s is None and s.speed_column is None:
+        raise TraceError("give the speed: --omega RAD_S or --speed-column NAME")
+    for name, value in (("--window", s.window_s), ("--hop", s.hop)):
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise TraceError(f"{name} {value!r}: must be a duration > 0 s")
+    if s.hop > s.window_s:
+        raise TraceError(
+            f"--hop {s.hop:g}: longer than --window {s.window_s:g}; samples would be skipped"
+        )
+    if s.omega_rad_s is not None and not (
+        isinstance(s.omega_rad_s, int | float)
+        and math.isfinite(s.omega_rad_s)
+        and s.omega_rad_s > 0
+    ):
+        raise TraceError(f"--omega {s.omega_rad_s!r}: must be a finite speed > 0 rad/s")
+    table = WindowTable()
+    source = f"trace {str(path)!r}"
+    cutter = _Windows(s, model, table, source)
+    chunks = read_chunks(
+        path,
+        s.time_column,
+        s.resistance_column,
+        s.speed_column,
+        chunk_rows=s.chunk_rows,
+        follow=s.follow,
+        idle_s=s.follow_idle_s,
+    )
+    try:
+        for chunk in chunks:
+            cutter.add(chunk)
+            if progress is not None:
+                progress(table)
+    except KeyboardInterrupt:
+        if not s.follow:
+            raise
+        table.interrupted = True
+    cutter.finish()
+    windows = table.frame()
+    if len(windows) and not (windows["status"] == "ok").any():
+        raise TraceError(
+            f"{source}: none of its {len(windows)} windows carries an estimate; the first: "
+            f"{windows['status'].iloc[0]}"
+        )
+    if not table.parts:
+        raise TraceError(
+            f"{source}: {table.n_samples} samples, shorter than one --window of {s.window_s:g} s"
+        )
+    return table

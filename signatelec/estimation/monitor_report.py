@@ -1,0 +1,190 @@
+"""The output of ``signatelec monitor``: the window table, the summary and the picture.
+
+:func:`write_monitor` writes, through the output-directory contract of :mod:`signatelec.io`
+(a temporary directory exchanged with ``DIR`` in one rename, the marker, nothing half-written):
+
+- ``windows.parquet``: one row per window (times, speed, resistance envelope, the estimate of
+  ``signatelec estimate`` with intervals and class probabilities, in-domain score, ``status``);
+- ``summary.json``: the trace, the settings, ``stretches`` (``start_s``, ``end_s``,
+  ``radial_load_n`` with ``_low`` and ``_high``, ``epsilon``, ``clearance_m``, ``regime``,
+  ``regime_probability``, ...), ``changes`` (``time_s``, ``what``, ``probability``) and
+  ``alarms`` (``time_s``, ``kind``, ``what``, ``probability``);
+- ``monitor.png``: resistance envelope, F_r with its band (windows and stretches), regime
+  probabilities and alarms against time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from signatelec._version import __version__
+
+FILES = ("windows.parquet", "summary.json", "monitor.png")
+COMMAND = "monitor"
+
+
+def _clean(value):
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def summary_of(table, settings, stretches, changes, alarms, extra: dict) -> dict:
+    windows = table.frame()
+    status = windows["status"] if "status" in windows else pd.Series(dtype=str)
+    refused = status[status != "ok"]
+    return _clean(
+        {
+            "signatelec": __version__,
+            "trace": {
+                "sample_rate_hz": table.sample_rate_hz,
+                "n_samples": table.n_samples,
+                "duration_s": table.n_samples / table.sample_rate_hz
+                if table.sample_rate_hz
+                else 0.0,
+                "windows": int(len(windows)),
+                "windows_without_estimate": int(refused.size),
+                "first_refusal": str(refused.iloc[0]) if refused.size else None,
+                "interrupted": table.interrupted,
+            },
+            "settings": {
+                "window_s": settings.window_s,
+                "hop_s": settings.hop,
+                "omega_rad_s": settings.omega_rad_s,
+                "speed_column": settings.speed_column,
+                "track_speed": settings.track_speed,
+                **extra,
+            },
+            "notes": list(table.notes),
+            "analysis_cpu_s": table.cpu_s,
+            "stretches": stretches,
+            "changes": changes,
+            "alarms": alarms,
+        }
+    )
+
+
+def _legend(ax) -> None:
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper right", fontsize=8)
+
+
+def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
+    from signatelec.plots import new_figure, save_figure
+
+    fig = new_figure(9.0, 8.0)
+    axes = fig.subplots(3, 1, sharex=True)
+    ok = windows[windows["status"] == "ok"] if "status" in windows else windows
+    t = ok["time_s"].to_numpy() if "time_s" in ok else np.empty(0)
+    ax = axes[0]
+    if t.size:
+        ax.fill_between(
+            t,
+            ok["resistance_min_ohm"] * 1e3,
+            ok["resistance_max_ohm"] * 1e3,
+            color="0.8",
+            label="window min-max",
+        )
+        ax.plot(t, ok["level_mean_ohm"] * 1e3, "k-", lw=0.8, label="window mean")
+    ax.set_ylabel("resistance (mOhm)")
+    _legend(ax)
+    ax = axes[1]
+    if t.size:
+        ax.fill_between(
+            t,
+            ok["radial_load_n_low"],
+            ok["radial_load_n_high"],
+            color="C0",
+            alpha=0.2,
+            lw=0,
+            label="window 90 % interval",
+        )
+        ax.plot(t, ok["radial_load_n"], ".", color="C0", ms=2, label="window estimate")
+    for i, s in enumerate(summary["stretches"]):
+        ax.fill_between(
+            [s["start_s"], s["end_s"]],
+            s["radial_load_n_low"],
+            s["radial_load_n_high"],
+            color="C3",
+            alpha=0.35,
+            lw=0,
+            label="stretch 90 % interval" if i == 0 else None,
+        )
+        ax.plot([s["start_s"], s["end_s"]], [s["radial_load_n"]] * 2, "C3-", lw=1.5)
+    ax.set_ylabel("F_r (N)")
+    _legend(ax)
+    ax = axes[2]
+    probs = [c for c in ok.columns if c.startswith("regime_probability_")]
+    for j, c in enumerate(probs):
+        ax.plot(t, ok[c], ".", ms=2, color=f"C{j}", alpha=0.5)
+        xs, ys = [], []
+        for s in summary["stretches"]:
+            xs += [s["start_s"], s["end_s"], np.nan]
+            q = s.get(c)
+            ys += [q, q, np.nan]
+        ax.plot(xs, ys, "-", color=f"C{j}", lw=2, label=c.removeprefix("regime_probability_"))
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel("regime probability")
+    ax.set_xlabel("time (s)")
+    _legend(ax)
+    for alarm in summary["alarms"]:
+        for a in axes:
+            a.axvline(
+                alarm["time_s"], color="C3" if alarm["kind"] == "load" else "C4", lw=0.8, ls="--"
+            )
+    axes[0].set_title(
+        f"{len(summary['stretches'])} stretches, {len(summary['changes'])} changes, "
+        f"{len(summary['alarms'])} alarms (dashed: red load, purple regime/condition)",
+        fontsize=9,
+    )
+    save_figure(fig, path)
+
+
+def write_monitor(out, windows: pd.DataFrame, summary: dict) -> None:
+    """Replace ``out`` with the monitor's output (module docstring)."""
+    import pyarrow.parquet as pq
+
+    from signatelec.io import replace_directory, table_with_metadata
+
+    with replace_directory(out, COMMAND) as tmp:
+        pq.write_table(
+            table_with_metadata(windows, {"monitor": summary["settings"]}), tmp / "windows.parquet"
+        )
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n")
+        draw(windows, summary, tmp / "monitor.png")
+
+
+def format_summary(summary: dict) -> str:
+    tr = summary["trace"]
+    lines = [
+        f"trace: {tr['n_samples']} samples at {tr['sample_rate_hz']:.6g} Hz "
+        f"({tr['duration_s']:.4g} s), {tr['windows']} windows "
+        f"({tr['windows_without_estimate']} without an estimate)"
+    ]
+    if tr["first_refusal"]:
+        lines.append(f"  first window without an estimate: {tr['first_refusal']}")
+    lines += [f"note: {n}" for n in summary["notes"]]
+    lines.append(f"{len(summary['stretches'])} stretches (90 % intervals):")
+    for s in summary["stretches"]:
+        lines.append(
+            f"  {s['start_s']:9.3f}-{s['end_s']:9.3f} s  F_r {s['radial_load_n']:.0f} N "
+            f"[{s['radial_load_n_low']:.0f}, {s['radial_load_n_high']:.0f}]  epsilon "
+            f"{s['epsilon']:.3f}  clearance {s['clearance_m'] * 1e6:+.1f} um  {s['regime']} "
+            f"({s['regime_probability']:.2f})"
+        )
+    for a in summary["alarms"]:
+        lines.append(
+            f"alarm at {a['time_s']:.3f} s: {a['what']} (probability {a['probability']:.3f})"
+        )
+    return "\n".join(lines)
