@@ -14,6 +14,11 @@ TOML layout (every section and key optional; defaults are the seed's scene, sect
     [effects]      cage, friction, damping, contact_law, tangential, gravity, centrifugal
     [outputs]      electrical, energy
     [numerics]     dt_s, duration_s, sample_rate_hz, integrator, fidelity, linear_stiffness_n_m
+    [loads]        unbalance_force_n (or unbalance_mass_kg, unbalance_eccentricity_m),
+                   unbalance_phase_rad, load_table_time_s, load_table_radial_load_n
+    [housing]      out_of_round_lobes, out_of_round_amplitude_m
+    [[defects]]    location, angle_rad, length_m, depth_m, ball, profile (an array of tables;
+                   signatelec.config.defects)
 
 ``procedure.spin_up_time_s``, ``numerics.dt_s`` and ``numerics.duration_s`` default to ``"auto"``:
 the scene chooses them when it is built (:func:`resolve_auto`), and :attr:`Scene.chosen` names
@@ -47,6 +52,17 @@ from signatelec.config.constraints import (
     SCENE,
     Checker,
     Constraint,
+)
+from signatelec.config.defects import (
+    ABNORMAL,
+    DEFECT_LIMITS,
+    DEPTH_LIMIT_FRACTION,
+    MAX_DEFECTS,
+    MAX_LOAD_TABLE_POINTS,
+    TABLE,
+    Defect,
+    Housing,
+    Loads,
 )
 from signatelec.config.options import OPTION_TABLE
 from signatelec.io import read_limited
@@ -165,6 +181,8 @@ SECTIONS: dict[str, type] = {
     "effects": Effects,
     "outputs": Outputs,
     "numerics": Numerics,
+    "loads": Loads,
+    "housing": Housing,
 }
 
 
@@ -176,11 +194,17 @@ class Scene:
     effects: Effects = field(default_factory=Effects)
     outputs: Outputs = field(default_factory=Outputs)
     numerics: Numerics = field(default_factory=Numerics)
+    loads: Loads = field(default_factory=Loads)
+    housing: Housing = field(default_factory=Housing)
+    #: Localised defects (signatelec.config.defects.Defect), TOML ``[[defects]]``.
+    defects: tuple = ()
     #: The settings the scene chose itself, ``(("numerics.dt_s", 1e-07), ...)``; a copy made
     #: with other values chooses them again unless its own value is given.
     chosen: tuple = field(default=(), compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        if isinstance(self.defects, list):
+            object.__setattr__(self, "defects", tuple(self.defects))
         resolve_auto(self)
         validate_scene(self)
 
@@ -207,9 +231,11 @@ class Scene:
 
     # --- (de)serialisation ----------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        return {"bearing": self.bearing.to_dict()} | {
-            name: asdict(getattr(self, name)) for name in SECTIONS
-        }
+        sections = {name: asdict(getattr(self, name)) for name in SECTIONS}
+        for key in ("load_table_time_s", "load_table_radial_load_n"):
+            sections["loads"][key] = list(sections["loads"][key])
+        defects = [asdict(d) for d in self.defects]
+        return {"bearing": self.bearing.to_dict()} | sections | {"defects": defects}
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), sort_keys=True)
@@ -220,7 +246,7 @@ class Scene:
         check = Checker(SceneError)
         if not isinstance(data, dict):
             check.fail("scene", data, "must be a table of sections")
-        check.keys("", data, ["bearing", *sections], noun="section")
+        check.keys("", data, ["bearing", *sections, "defects"], noun="section")
         kwargs: dict[str, Any] = {}
         for name, value in data.items():
             if name == "bearing":
@@ -235,6 +261,8 @@ class Scene:
                     raise SceneError(str(exc)) from None
                 except TypeError as exc:
                     raise SceneError(f"bearing: {exc}") from None
+            elif name == "defects":
+                kwargs[name] = _defects(value)
             else:
                 kwargs[name] = _section(name, sections[name], value)
         return cls(**kwargs)
@@ -399,6 +427,16 @@ def _section(name: str, cls: type, data: Any) -> Any:
     return cls(**converted)
 
 
+def _defects(data: Any) -> tuple[Defect, ...]:
+    """The defects of a TOML ``[[defects]]`` array of tables."""
+    check = Checker(SceneError)
+    if not isinstance(data, list):
+        check.fail("defects", data, "must be an array of tables ([[defects]])")
+    if len(data) > MAX_DEFECTS:
+        check.fail("defects", f"{len(data)} tables", f"at most {MAX_DEFECTS} defects")
+    return tuple(Defect.from_dict(item, f"defects[{i}]", SceneError) for i, item in enumerate(data))
+
+
 # --- named limits of the scene table (physics rules) -------------------------------------------
 
 
@@ -450,6 +488,62 @@ def scene_limits(scene: Scene) -> dict[str, Any]:
     }
 
 
+def _validate_abnormal(scene: Scene) -> None:
+    """The rows of [loads] and [housing], the load table element by element, the defects."""
+    b, op, loads, housing = scene.bearing, scene.operating, scene.loads, scene.housing
+    table_t, table_f = loads.load_table_time_s, loads.load_table_radial_load_n
+    # (called by the rows that need them, after the table and the numbers are checked)
+    largest = lambda: max((op.radial_load_n, *table_f))  # noqa: E731
+    unbalance = lambda: loads.unbalance_amplitude_n(op.omega_rad_s)  # noqa: E731
+    limits = scene_limits(scene) | {
+        "one_unbalance_form": lambda: (
+            loads.unbalance_force_n == 0.0
+            or loads.unbalance_mass_kg * loads.unbalance_eccentricity_m == 0.0
+        ),
+        "unbalance_within_limit": lambda: unbalance() + largest() <= radial_load_limit_n(b),
+        "unbalance_n": unbalance,
+        "largest_load_n": largest,
+        "lobes_given": housing.out_of_round_lobes >= 1 or housing.out_of_round_amplitude_m == 0,
+    }
+    check = Checker(SceneError, limits=limits)
+    for key, values in (("load_table_time_s", table_t), ("load_table_radial_load_n", table_f)):
+        if not isinstance(values, tuple) or len(values) > MAX_LOAD_TABLE_POINTS:
+            allowed = f"must be an array of at most {MAX_LOAD_TABLE_POINTS} numbers"
+            check.fail(f"loads.{key}", values, allowed)
+        for i, value in enumerate(values):
+            row = TABLE[0] if key == "load_table_time_s" else TABLE[1]
+            check.check(row, value, f"loads.{key}[{i}]")
+    if len(table_t) != len(table_f):
+        check.fail(
+            "loads.load_table_radial_load_n",
+            table_f,
+            f"must have as many points as load_table_time_s ({len(table_t)})",
+        )
+    for i in range(1, len(table_t)):
+        if not table_t[i] > table_t[i - 1]:
+            check.fail(f"loads.load_table_time_s[{i}]", table_t[i], "times must increase")
+    for row in ABNORMAL:
+        check.check(row, getattr(getattr(scene, row.section), row.key))
+    r_out = b.outer_race_radius_m + op.clearance_m
+    radii = {"outer": r_out, "inner": b.inner_race_radius_m, "ball": b.ball_radius_m}
+    names = {"outer": "outer race", "inner": "inner race", "ball": "ball"}
+    for i, d in enumerate(scene.defects):
+        if not isinstance(d, Defect):
+            check.fail(f"defects[{i}]", d, "must be a Defect")
+        one = Checker(
+            SceneError,
+            limits={
+                "surface_length_m": 2.0 * math.pi * radii.get(d.location, math.inf),
+                "surface": names.get(d.location, d.location),
+                "depth_limit_m": DEPTH_LIMIT_FRACTION * b.ball_radius_m,
+                "last_ball": b.n_balls - 1,
+            },
+        )
+        values = Defect.from_dict(asdict(d), f"defects[{i}]", SceneError)
+        for row in DEFECT_LIMITS:
+            one.check(row, getattr(values, row.key), f"defects[{i}].{row.key}")
+
+
 def validate_scene(scene: Scene) -> None:
     """Raise :class:`SceneError` on the first value that is not allowed: every option among its
     values and every number's type, then the rows of :data:`signatelec.config.constraints.SCENE`
@@ -469,6 +563,7 @@ def validate_scene(scene: Scene) -> None:
                 check.check(row, value)
     for row in SCENE:
         check.check(row, getattr(getattr(scene, row.section), row.key))
+    _validate_abnormal(scene)
 
 
 DEFAULT_SCENE = Scene()
