@@ -86,6 +86,11 @@ def _schema():
             ("max_ball_load_n", f64),
             ("ball_pass_frequency_hz", f64),
             ("cpu_s", f64),
+            ("condition", s),
+            ("spall_length_m", f64),
+            ("spall_depth_m", f64),
+            ("spall_angle_rad", f64),
+            ("unbalance_force_n", f64),
             ("resistance_ohm", pa.list_(f64)),
             ("resistance_clean_ohm", pa.list_(f64)),
         ]

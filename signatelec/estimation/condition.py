@@ -32,6 +32,7 @@ from sklearn.utils.validation import (
     validate_data,
 )
 
+from signatelec.config.constraints import CONDITIONS as CONDITION_NAMES
 from signatelec.estimation.domain import Domain
 from signatelec.estimation.models import (
     DEFAULT_COVERAGE,
@@ -40,12 +41,20 @@ from signatelec.estimation.models import (
     _Boosting,
 )
 
-#: The conditions, in report order.
-CONDITIONS = ("healthy", "outer", "inner", "ball", "unbalance")
+#: The conditions, in report order (the dataset's labels).
+CONDITIONS = CONDITION_NAMES
 #: Conditions that are a spall, whose length is estimated.
 SPALLS = ("outer", "inner", "ball")
 CONDITION_TARGET = "condition"
 SEVERITY_TARGET = "spall_length_m"
+#: The condition labels of a dataset's traces (signatelec.data.design.condition_labels).
+CONDITION_LABELS = (
+    CONDITION_TARGET,
+    SEVERITY_TARGET,
+    "spall_depth_m",
+    "spall_angle_rad",
+    "unbalance_force_n",
+)
 #: Fewest spalled rows the length model is fitted on.
 MIN_SPALL_ROWS = 10
 
