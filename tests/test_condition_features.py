@@ -35,45 +35,7 @@ from signatelec.estimation.envelope import (
     spectral_kurtosis,
 )
 from signatelec.physics.kinematics import characteristic_frequencies_hz
-
-FS = 20000.0
-OMEGA = 500.0
-LEVEL = 2.5e-3
-
-
-def spalled_trace(
-    kind: str,
-    *,
-    duration_s: float = 0.2,
-    noise: float = 0.002,
-    pulse_rel: float = 0.05,
-    width_s: float = 2e-4,
-    bearing=None,
-    seed: int = 0,
-    omega: float = OMEGA,
-) -> np.ndarray:
-    """A healthy ripple at BPFO (0.1 % and 0.03 % at its first two harmonics, as the DEM's)
-    plus, for a spall, rectangular pulses of ``pulse_rel`` of the level (a ball of the five or
-    six carrying the current leaving the circuit) at its line (inner: heights modulated by the load
-    zone at f_s; ball: at FTF), or for an unbalance a 0.3 % modulation at f_s; white noise of
-    ``noise`` of the level."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(int(round(duration_s * FS))) / FS
-    lines = characteristic_frequencies_hz(omega, bearing)
-    bpfo = lines["bpfo"]
-    r = LEVEL * (
-        1.0 + 1e-3 * np.cos(2 * np.pi * bpfo * t + 0.3) + 3e-4 * np.cos(4 * np.pi * bpfo * t)
-    )
-    if kind in ("outer", "inner", "ball"):
-        f = {"outer": bpfo, "inner": lines["bpfi"], "ball": lines["ball_defect"]}[kind]
-        pulses = ((t * f + 0.1) % 1.0 < width_s * f).astype(float)
-        zone = {"outer": 1.0, "inner": lines["shaft"], "ball": lines["ftf"]}[kind]
-        if kind != "outer":
-            pulses *= np.clip(np.cos(2 * np.pi * zone * t), 0.0, None)
-        r = r + LEVEL * pulse_rel * pulses
-    elif kind == "unbalance":
-        r = r * (1.0 + 3e-3 * np.cos(2 * np.pi * lines["shaft"] * t))
-    return r * (1.0 + noise * rng.standard_normal(t.size))
+from tests.synthetic_traces import FS, LEVEL, OMEGA, spalled_trace
 
 
 def test_spectral_kurtosis_of_noise_tone_and_impulses():
