@@ -188,3 +188,109 @@ def test_condition_model_features_are_computed():
     r = spalled_trace("outer")
     feats = trace_features(r, FS, OMEGA) | condition_features(r, FS, OMEGA)
     assert all(np.isfinite(feats[n]) for n in names)
+
+
+# --- model files and the command line ----------------------------------------------------------
+
+EXAMPLE = "datasets/example_trace.csv"
+
+
+def _example_with(kind: str, rng, height: float) -> np.ndarray:
+    """The example trace (a DEM run, 100 ms: 3.2 cage revolutions) with a synthetic condition
+    added (tests/synthetic_traces.py's pulses) and 0.1 % more noise."""
+    ex = pd.read_csv(EXAMPLE, comment="#")
+    r = ex["resistance_ohm"].to_numpy()
+    extra = spalled_trace(
+        kind,
+        duration_s=0.1,
+        noise=0.0,
+        pulse_rel=height,
+        level=1.0,
+        phase=None,
+        seed=int(rng.integers(2**31)),
+        length_m=float(rng.uniform(5e-4, 3e-3)),
+        width_s=None,
+    )
+    # the synthetic trace's own ripple (1 + 0.1 % ...) is taken out: only the condition is added
+    healthy = spalled_trace("healthy", duration_s=0.1, noise=0.0, level=1.0)
+    return (r * (1.0 + (extra - healthy)) * (1.0 + 1e-3 * rng.standard_normal(r.size)), ex)
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory):
+    """A small load-state model with a condition model trained on the example trace with each
+    condition added, saved to a file."""
+    from signatelec.estimation.models import LoadStateEstimator
+    from signatelec.estimation.persistence import save_model
+    from signatelec.estimation.training import DEFAULT_TABLE, train_model
+
+    table = pd.read_parquet(DEFAULT_TABLE)
+    model = train_model(
+        table[table["run_id"] % 4 == 0], estimator=LoadStateEstimator(max_iter=20, n_splits=2)
+    )
+    rng = np.random.default_rng(11)
+    rows = []
+    for kind in CONDITIONS:
+        for _ in range(16):
+            r, _ = _example_with(kind, rng, rng.uniform(0.02, 0.06))
+            feats = trace_features(r, FS, OMEGA) | condition_features(r, FS, OMEGA)
+            rows.append({"run_id": len(rows), "condition": kind, "spall_length_m": 1e-3, **feats})
+    model.condition = train_condition(
+        pd.DataFrame(rows), estimator=ConditionEstimator(max_iter=30, n_splits=2)
+    )
+    path = tmp_path_factory.mktemp("condition") / "with_condition.model"
+    save_model(model, path)
+    return path
+
+
+def _run(args) -> int:
+    from signatelec.cli import main
+
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+@pytest.mark.parametrize("kind", ["inner", "healthy"])
+def test_estimate_names_the_condition(model_file, tmp_path, capsys, kind):
+    rng = np.random.default_rng(21)
+    r, ex = _example_with(kind, rng, 0.05)
+    src = tmp_path / "trace.csv"
+    pd.DataFrame({"time_s": ex["time_s"], "resistance_ohm": r}).to_csv(src, index=False)
+    out = tmp_path / "estimate.json"
+    code = _run(
+        ["estimate", str(src), "--omega", "500", "--model", str(model_file), "--out", str(out)]
+    )
+    text = capsys.readouterr().out
+    assert code == 0, text
+    lines = [ln for ln in text.splitlines() if ln.startswith("  condition = ")]
+    assert len(lines) == 1 and lines[0].startswith(f"  condition = {kind}  (probability ")
+    res = json.loads(out.read_text())
+    assert res["condition"] == kind
+    probs = [res[f"condition_probability_{c}"] for c in CONDITIONS]
+    assert sum(probs) == pytest.approx(1.0)
+    for k in ("spall_length_m", "spall_length_m_low", "spall_length_m_high"):
+        assert k in res
+    if kind == "inner":
+        # the spall's own line outgrows the ripple: named, not taken for a wrong --omega
+        assert res["trace"]["ripple"] == "elsewhere"
+        assert res["spall_length_m_low"] <= res["spall_length_m"] <= res["spall_length_m_high"]
+    else:
+        assert res["spall_length_m"] is None and "radial_load_n" in res
+
+
+def test_a_defect_line_without_the_defect_is_a_wrong_speed(model_file, tmp_path, capsys):
+    """A line on BPFI that the condition model does not call confidently is refused as the
+    sanity layer says (a wrong --omega), exit 2."""
+    ex = pd.read_csv(EXAMPLE, comment="#")
+    # a pure tone at BPFI: a line, but no spall's pulses, harmonics or sidebands
+    bpfi = 616.0
+    t = ex["time_s"].to_numpy()
+    r = ex["resistance_ohm"].to_numpy() * (1.0 + 0.01 * np.sin(2 * np.pi * bpfi * t))
+    src = tmp_path / "tone.csv"
+    pd.DataFrame({"time_s": t, "resistance_ohm": r}).to_csv(src, index=False)
+    code = _run(["estimate", str(src), "--omega", "500", "--model", str(model_file)])
+    err = capsys.readouterr().err
+    assert code == 2 and "ripple at" in err and len(err.strip().splitlines()) == 1

@@ -45,6 +45,7 @@ from signatelec.estimation.domain import (
 from signatelec.estimation.features import trace_features
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.sanity import screen_trace
+from signatelec.measurement.traces import TraceError
 from signatelec.physics.regimes import REGIMES
 
 #: A regime call at or above this probability is reported as confident. Measured on held-out
@@ -67,7 +68,9 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
     DomainError (one line) when the trace cannot carry an answer (module docstring).
     """
     domain = model.domain
-    screened = screen_trace(trace, omega_rad_s, domain.level_range_ohm)
+    screened = screen_trace(
+        trace, omega_rad_s, domain.level_range_ohm, defect_lines=model.condition is not None
+    )
     trace, ripple = screened.trace, screened.ripple
     notes = list(screened.notes)
     feats = trace_features(trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s)
@@ -77,6 +80,16 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
             trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s, feats, model.condition
         )
         notes += condition_notes
+    if screened.defect_line is not None:
+        # the strongest line is a defect's, not the ball-pass ripple: only a confident call of
+        # that very condition explains it; otherwise it is a wrong --omega, as the layer says
+        kind, name = screened.defect_line
+        if not (_confident_fault(condition) and condition["condition"] == kind):
+            raise TraceError(f"{trace.source}: {ripple.problem()}")
+        notes.append(
+            f"the strongest line ({ripple.frequency_hz:.1f} Hz) is the {name} line of the "
+            f"{kind} condition, not the ball-pass ripple"
+        )
     score = domain.score(feats)
     where = trace.source
     problem = None

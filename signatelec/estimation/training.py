@@ -304,15 +304,21 @@ def screened_traces(table: pd.DataFrame) -> tuple[list[np.ndarray], list[int], l
     """The traces of a dataset table through the sanity layer
     (:func:`signatelec.measurement.sanity.screen_trace`): the (trimmed) traces kept, their row
     numbers, and one line per trace refused (a ball-pass line away from the labelled speed, a
-    constant trace, a level that is not steady: labels that do not fit the trace)."""
+    constant trace, a level that is not steady: labels that do not fit the trace). A trace
+    labelled with a condition may show that condition's own line instead of the ripple."""
     kept, rows, refused = [], [], []
+    conditions = table[CONDITION_TARGET].to_numpy() if CONDITION_TARGET in table else None
     for i, (r, fs, om) in enumerate(
         zip(table["resistance_ohm"], table["sample_rate_hz"], table["omega_rad_s"], strict=True)
     ):
         name = f"trace {table['trace_id'].iloc[i]}" if "trace_id" in table else f"row {i}"
+        label = conditions[i] if conditions is not None else None
         try:
             trace = prepare_trace(np.arange(len(r)) / fs, r, om, source=name)
-            kept.append(screen_trace(trace, om).trace.resistance_ohm)
+            screened = screen_trace(trace, om, defect_lines=label is not None)
+            if screened.defect_line is not None and screened.defect_line[0] != label:
+                raise TraceError(f"{name}: {screened.ripple.problem()}")
+            kept.append(screened.trace.resistance_ohm)
             rows.append(i)
         except TraceError as exc:
             refused.append(str(exc))
