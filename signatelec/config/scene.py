@@ -221,6 +221,14 @@ class Scene:
         return p.clearance_time_s + p.load_time_s + p.spin_up_time_s
 
     @property
+    def abnormal(self) -> bool:
+        """Whether the scene has a defect, an unbalance, a load table or an out-of-round ring
+        (then its signals are not periodic with the ball pass)."""
+        loads = self.loads
+        unbalance = loads.unbalance_amplitude_n(self.operating.omega_rad_s) > 0.0
+        return bool(self.defects) or unbalance or loads.has_table or self.housing.out_of_round
+
+    @property
     def n_steps(self) -> int:
         return int(round(self.numerics.duration_s / self.numerics.dt_s))
 

@@ -232,13 +232,16 @@ def ring_equilibrium(
     rtol=SOLVER_RTOL,
     initial_shift_xy_m=None,
     unit_xy=None,
+    load_xy_n=None,
 ) -> RingSolution:
     """Checked inputs to :func:`signatelec.physics.ring_equilibrium.solve_ring`, checked output.
 
     ``raceway`` is ``((c_inner, c_outer), exponent)`` (:func:`raceway_law`, or a scene's law);
     the other parameters are those of :func:`solve_equilibrium_over_time`; ``rtol`` the residual
     asked, relative to the load carried; ``unit_xy`` the ``(sin psi, -cos psi)`` arrays when the
-    caller has them. Raises as :func:`solve_equilibrium_over_time`.
+    caller has them; ``clearance_m`` may be a (T, Z) array (each ball's at each instant) and
+    ``load_xy_n`` a (T, 2) array of the load at each instant, replacing the static F_r's (a
+    rotating or time-varying load). Raises as :func:`solve_equilibrium_over_time`.
     """
     psi = np.asarray(ball_angle_rad, dtype=float)
     if psi.ndim != 2 or psi.shape[1] < 3:
@@ -246,6 +249,8 @@ def ring_equilibrium(
     if not np.isfinite(radial_load_n) or radial_load_n < 0.0:
         raise ValueError(f"radial_load_n = {radial_load_n!r}: must be a finite number >= 0")
     load_xy = ring_load_xy_n(bearing, radial_load_n, gravity)
+    if load_xy_n is not None:
+        load_xy = np.broadcast_to(np.asarray(load_xy_n, dtype=float), (psi.shape[0], 2))
     body = ball_body_force_n(psi, bearing, omega_rad_s, centrifugal, gravity)
     ux, uy = (np.sin(psi), -np.cos(psi)) if unit_xy is None else unit_xy
     start = (0.0, 0.0) if initial_shift_xy_m is None else initial_shift_xy_m
@@ -253,7 +258,8 @@ def ring_equilibrium(
     bad = np.flatnonzero(~solution.converged)
     if bad.size:
         # Why an instant failed: balls that cannot carry the load, or an ill-conditioned set.
-        carries = _ball_set_carries(psi, load_xy) if load_xy.any() else np.ones(len(psi), bool)
+        first = load_xy if load_xy.ndim == 1 else load_xy[bad[0]]
+        carries = _ball_set_carries(psi, first) if first.any() else np.ones(len(psi), bool)
         if not carries.all():
             cannot = np.flatnonzero(~carries)
             raise ValueError(
@@ -261,11 +267,11 @@ def ring_equilibrium(
                 f"{cannot[0]}) the balls lie on one side, away from the load, and cannot carry it"
             )
         u = radial_unit_vectors(psi[bad[0]])
-        residual = solution.inner_force_n[bad[0]] @ u - load_xy
+        residual = solution.inner_force_n[bad[0]] @ u - first
         raise RuntimeError(
             f"ring equilibrium not reached at {bad.size} of {psi.shape[0]} instants "
             f"(first: {int(bad[0])}; residual {float(np.hypot(*residual)):.3g} N for a load of "
-            f"{float(np.hypot(*load_xy)):.6g} N)"
+            f"{float(np.hypot(*first)):.6g} N)"
         )
     return solution
 

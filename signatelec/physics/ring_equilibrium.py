@@ -212,7 +212,7 @@ def _ring(sx, sy, ux, uy, body, reach, clearance, fx, fy, ci, co, n, qi, qo, xi,
     potential = -(sx * fx + sy * fy)
     squeezed = 0
     for k in range(ux.shape[0]):
-        a = sx * ux[k] + sy * uy[k] - clearance
+        a = sx * ux[k] + sy * uy[k] - clearance[k]
         qi[k], qo[k], kk, p, xi[k], xo[k], split[k] = _ball(
             a, body[k], reach[k], ci, co, n, split[k]
         )
@@ -247,7 +247,7 @@ def _cold_start(ux, uy, body, clearance, fx, fy, ci, co, n):
             second = p
     ball_load = 5.0 * load / ux.shape[0]
     approach = law_overlap(ball_load, ci, n) + law_overlap(ball_load + max(body.max(), 0.0), co, n)
-    magnitude = (max(clearance, 0.0) + approach) / min(max(second, 0.1), 1.0)
+    magnitude = (max(clearance.max(), 0.0) + approach) / min(max(second, 0.1), 1.0)
     return magnitude * dx, magnitude * dy
 
 
@@ -264,6 +264,7 @@ def _solve_instant(
     qi, qo, xi, xo, split are those of the returned shift.
     """
     load = math.hypot(fx, fy)
+    gap = max(abs(clearance.max()), abs(clearance.min()))
     rx, ry, j00, j01, j11, pot, squeezed = _ring(
         sx, sy, ux, uy, body, reach, clearance, fx, fy, ci, co, n, qi, qo, xi, xo, split
     )
@@ -274,7 +275,7 @@ def _solve_instant(
         )
     current = True  # qi, qo, xi, xo, split belong to (sx, sy)
     for _ in range(_MAX_RING_ITERATIONS):
-        roundoff = 16.0 * _EPS * (math.hypot(sx, sy) + abs(clearance)) * (j00 + j11)
+        roundoff = 16.0 * _EPS * (math.hypot(sx, sy) + gap) * (j00 + j11)
         res = math.hypot(rx, ry)
         if res <= max(rtol * (load + qi.sum()), roundoff):
             return sx, sy, True
@@ -304,14 +305,16 @@ def _solve_instant(
         rx, ry, j00, j01, j11, pot, _ = _ring(
             sx, sy, ux, uy, body, reach, clearance, fx, fy, ci, co, n, qi, qo, xi, xo, split
         )
-    roundoff = 16.0 * _EPS * (math.hypot(sx, sy) + abs(clearance)) * (j00 + j11)
+    roundoff = 16.0 * _EPS * (math.hypot(sx, sy) + gap) * (j00 + j11)
     ok = math.hypot(rx, ry) <= max(max(ACCEPTED_RTOL, rtol) * (load + qi.sum()), roundoff)
     return sx, sy, ok
 
 
 @njit(cache=_CACHE, error_model="numpy")
 def _solve_series(ux, uy, body, clearance, fx, fy, ci, co, n, floor, rtol, start, out):
-    """Every instant in turn, each started from the extrapolation of the three before."""
+    """Every instant in turn, each started from the extrapolation of the three before.
+
+    ``clearance`` (T, Z): each ball's clearance at each instant; ``fx, fy`` (T,): the load."""
     shift, qi, qo, xi, xo, ok = out
     t_count, z = ux.shape
     split = np.full(z, _unit_force_split(ci, co, n))
@@ -335,9 +338,9 @@ def _solve_series(ux, uy, body, clearance, fx, fy, ci, co, n, floor, rtol, start
             uy[t],
             body[t],
             reach,
-            clearance,
-            fx,
-            fy,
+            clearance[t],
+            fx[t],
+            fy[t],
             ci,
             co,
             n,
@@ -402,10 +405,11 @@ def solve_ring(
         Outward radial unit vectors of the balls, (sin psi, -cos psi).
     body_n : array_like, shape (T, Z)
         Outward radial body force of each ball (centrifugal, weight), N.
-    clearance_m : float
-        Radial clearance Delta_r (seed eq. 14), m; < 0 a preload.
-    load_xy_n : array_like, shape (2,)
-        Load F on the inner ring, N.
+    clearance_m : float or array_like, shape (T, Z)
+        Radial clearance Delta_r (seed eq. 14), m; < 0 a preload. An array gives each ball its
+        own at each instant (a defect under it, an out-of-round outer race).
+    load_xy_n : array_like, shape (2,) or (T, 2)
+        Load F on the inner ring, N (an array: at each instant).
     coefficients : (float, float)
         Normal-law coefficients c of the ball/inner and ball/outer raceway contacts.
     exponent : float
@@ -422,11 +426,14 @@ def solve_ring(
     body = np.ascontiguousarray(np.broadcast_to(body_n, ux.shape), dtype=float)
     ci, co = (float(c) for c in coefficients)
     n = float(exponent)
-    fx, fy = (float(f) for f in load_xy_n)
     n_instants, n_balls = ux.shape
+    load = np.broadcast_to(np.asarray(load_xy_n, dtype=float), (n_instants, 2))
+    fx, fy = np.ascontiguousarray(load[:, 0]), np.ascontiguousarray(load[:, 1])
+    clearance = np.ascontiguousarray(np.broadcast_to(clearance_m, ux.shape), dtype=float)
     # Regularisation of a singular Jacobian (fewer than two balls squeezed): a small fraction of
     # the secant stiffness of Z balls carrying a representative load.
-    ball_load = max(math.hypot(fx, fy) / n_balls, float(np.abs(body).max(initial=0.0)), 1.0)
+    largest = float(np.hypot(fx, fy).max(initial=0.0))
+    ball_load = max(largest / n_balls, float(np.abs(body).max(initial=0.0)), 1.0)
     floor = 1e-10 * n_balls * ball_load / series_overlap_m(ball_load, (ci, co), n)
     out = (
         np.zeros((n_instants, 2)),
@@ -435,5 +442,5 @@ def solve_ring(
     )
     if n_instants:
         start = np.asarray(start_xy_m, dtype=float).reshape(2)
-        _solve_series(ux, uy, body, float(clearance_m), fx, fy, ci, co, n, floor, rtol, start, out)
+        _solve_series(ux, uy, body, clearance, fx, fy, ci, co, n, floor, rtol, start, out)
     return RingSolution(*out)

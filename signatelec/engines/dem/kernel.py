@@ -36,6 +36,12 @@ GRAVITY_STANDARD = True
 CENTRIFUGAL_COMPENSATED = False
 ENERGY = False
 INTEGRATOR_VERLET = True
+DEFECTS_OUTER = False
+DEFECTS_INNER = False
+DEFECTS_BALL = False
+UNBALANCE = False
+LOAD_TABLE = False
+OUT_OF_ROUND = False
 # --- end of kernel spec -----------------------------------------------------------------------
 # fmt: on
 
@@ -45,14 +51,19 @@ from numba import njit
 
 from signatelec.engines.dem.primitives import (
     FASTMATH,
+    contact_drop,
     coulomb_limit,
     damped_normal_force,
     first_non_finite,
     inline,
     kinetic_energy,
+    lobe_shift,
+    ring_angle_rad,
     rquart_warm,
     rsqrt_warm,
     schedule,
+    scheduled_load,
+    unbalance_force,
 )
 from signatelec.engines.dem.records import (
     NONFINITE,
@@ -64,12 +75,15 @@ from signatelec.engines.dem.records import (
     R_WALL,
 )
 from signatelec.physics import contact as _contact
+from signatelec.physics.defects import INNER_SIDE, OUTER_SIDE
 
 # The contact laws are the functions of signatelec.physics.contact themselves, inlined.
 hertz_elastic_energy = inline(_contact.hertz_elastic_energy)
 linear_normal_force = inline(_contact.linear_normal_force)
 linear_elastic_energy = inline(_contact.linear_elastic_energy)
 tangential_force = inline(_contact.tangential_force)
+#: Geometry with defects or lobes: a contact's overlap may be <= 0 (a ball over a spall).
+SURFACE = DEFECTS_OUTER or DEFECTS_INNER or DEFECTS_BALL or OUT_OF_ROUND
 #: Entry points, cached on disk (their callees are compiled into them).
 _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 
@@ -87,6 +101,8 @@ def normal_law(overlap, closing_speed, kind, p, roots, k, slot):
     """
     root = 1.0
     quarter = 1.0
+    if SURFACE and not overlap > 0.0:
+        return 0.0, 0.0, 0.0, 0.0  # the local surface has dropped away: no contact
     coef = p.normal_coefficient[kind]
     if CONTACT_LAW_LINEAR:
         fe = linear_normal_force(overlap, coef)
@@ -182,6 +198,12 @@ def forces(t, p, s, acc, step):
     r_out, r_rate, fr, omega = schedule(t, p)
     s.sched[0] = r_out
     s.sched[1] = fr
+    phi = 0.0  # inner-ring angle
+    if DEFECTS_INNER or UNBALANCE:
+        phi = ring_angle_rad(t, p)
+    if LOAD_TABLE:
+        fr = scheduled_load(t, p, fr)
+        s.sched[1] = fr
     s.sched[2] = omega
     drive_torque = 0.0
     loss = 0.0
@@ -196,6 +218,12 @@ def forces(t, p, s, acc, step):
         for k in range(z):
             acc[z + k, 0] = 0.0
             acc[z + k, 1] = 0.0
+    if UNBALANCE:
+        ufx, ufy = unbalance_force(phi, omega, p)
+        ring_fx += ufx
+        ring_fy += ufy
+        if ENERGY:
+            work += (ufx * vel[ring, 0] + ufy * vel[ring, 1]) * dt
     if ENERGY:
         work += -fr * vel[ring, 1] * dt
         if GRAVITY_STANDARD:
@@ -225,8 +253,11 @@ def forces(t, p, s, acc, step):
             rvx = vel[k, 0] - vel[ring, 0]
             rvy = vel[k, 1] - vel[ring, 1]
             vclose = -(rvx * nx + rvy * ny)
+            ov = reach - d2 * inv
+            if DEFECTS_INNER or DEFECTS_BALL:  # the overlap with the local surface
+                ov -= contact_drop(INNER_SIDE, math.atan2(dx, -dy), phi, k, p, s)
             fn, rd, qd, dloss, de = normal_contact(
-                reach - d2 * inv, vclose, 0, ball_limit, k, p, s, k, R_INNER + 1, step
+                ov, vclose, 0, ball_limit, k, p, s, k, R_INNER + 1, step
             )
             loss += dloss
             elastic += de
@@ -257,6 +288,8 @@ def forces(t, p, s, acc, step):
         # --- ball / outer raceway -----------------------------------------------------
         r2 = x * x + y * y
         inside = r_out - rb
+        if OUT_OF_ROUND:
+            inside -= p.lobe_amplitude_m
         if r2 > inside * inside or CENTRIFUGAL_COMPENSATED:
             inv = rsqrt_warm(r2, roots, k, R_OUTER)
             r = r2 * inv
@@ -272,8 +305,15 @@ def forces(t, p, s, acc, step):
                     work += -fcp * (vel[k, 0] * nx + vel[k, 1] * ny) * dt
         if r2 > inside * inside:
             vclose = vel[k, 0] * nx + vel[k, 1] * ny - r_rate
+            ov = r + rb - r_out
+            if DEFECTS_OUTER or DEFECTS_BALL or OUT_OF_ROUND:  # the local surface
+                theta = math.atan2(x, -y)
+                if OUT_OF_ROUND:
+                    ov -= lobe_shift(t, theta, p)
+                if DEFECTS_OUTER or DEFECTS_BALL:
+                    ov -= contact_drop(OUTER_SIDE, theta, phi, k, p, s)
             fn, rd, qd, dloss, de = normal_contact(
-                r + rb - r_out, vclose, 1, ball_limit, k, p, s, k, R_OUTER + 1, step
+                ov, vclose, 1, ball_limit, k, p, s, k, R_OUTER + 1, step
             )
             loss += dloss
             elastic += de
@@ -465,6 +505,9 @@ def record(p, s, rec, i, t):
             rec.fcon[i, k, q] = s.fcon[k, q]
     for q in range(4):
         rec.sched[i, q] = s.sched[q]
+    if DEFECTS_BALL:
+        for k in range(z):
+            rec.angle[i, k] = s.angle[k]
     if ENERGY:
         rec.energy[i, 0] = s.energy[0]
         rec.energy[i, 1] = s.energy[1]
@@ -503,6 +546,9 @@ def run(p, s, rec, step0, n_steps, record_every, rec_index0):
             for i in range(n2):
                 pos_f[i] += vel_f[i] * dt + acc_f[i] * half_dt2
                 vel_f[i] += acc_f[i] * dt
+            if DEFECTS_BALL:  # each ball's rotation angle, as its position
+                for k in range(z):
+                    s.angle[k] += spin[k] * dt + spin_acc[k] * half_dt2
             for k in range(z):
                 spin[k] += spin_acc[k] * dt
                 work2[nb + k, 0] = spin_acc[k]
@@ -525,6 +571,8 @@ def run(p, s, rec, step0, n_steps, record_every, rec_index0):
                 pos_f[i] += vel_f[i] * dt
             for k in range(z):
                 spin[k] += spin_acc[k] * dt
+                if DEFECTS_BALL:
+                    s.angle[k] += spin[k] * dt
         if s.status[0] != OK:
             return rec_index
         countdown -= 1

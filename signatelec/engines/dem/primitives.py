@@ -1,5 +1,6 @@
 """Numba pieces of the DEM kernel that no kernel option changes: warm-started roots, the set-up
-schedule, scalar contact limits, checks.
+schedule (and the load table, the inner ring's angle, the unbalance), the local surface of
+defects and lobes (signatelec.physics.defects), scalar contact limits, checks.
 
 They are inlined into (or linked with) the specialised kernel of :mod:`.kernel`, whose cache key
 covers this file (:mod:`.build`). Arrays as in :mod:`.records`.
@@ -10,6 +11,8 @@ from __future__ import annotations
 import math
 
 from numba import njit
+
+from signatelec.physics.defects import lobe_shift_m, surface_drop_m, tabulated_load_n
 
 # No nnan/ninf: the divergence check relies on math.isfinite. The time loop and the functions it
 # calls run without numba's reference counting (_nrt=False in the kernel): they allocate
@@ -86,6 +89,54 @@ def schedule(t, p):
     elif t < t3:
         omega = p.omega_rad_s * 0.5 * (1.0 - math.cos(math.pi * (t - t2) / (t3 - t2)))
     return r_out, r_rate, fr, omega
+
+
+@inline
+def scheduled_load(t, p, fr):
+    """F_r at time t with the load table (physics.defects.tabulated_load_n, times after the
+    set-up); ``fr`` the schedule's during the set-up."""
+    if t < p.spin_up_end_s:
+        return fr
+    times, loads = p.load_table_time_s, p.load_table_load_n
+    return tabulated_load_n(t - p.spin_up_end_s, times, loads, p.load_table_count, fr)
+
+
+@inline
+def ring_angle_rad(t, p):
+    """Inner-ring angle phi(t), the integral of the schedule's speed (the quasi-static tier's
+    inner_ring_angle_rad), rad."""
+    t2, t3, omega = p.load_end_s, p.spin_up_end_s, p.omega_rad_s
+    if t <= t2:
+        return 0.0
+    if t < t3:
+        u, ramp = t - t2, t3 - t2
+        return 0.5 * omega * (u - ramp / math.pi * math.sin(math.pi * u / ramp))
+    return omega * (0.5 * (t3 - t2) + t - t3)
+
+
+@inline
+def unbalance_force(phi, omega, p):
+    """The unbalance m e omega^2 turning with the inner ring, at phi + its phase from -y, N."""
+    force = p.unbalance_n_s2 * omega * omega
+    angle = phi + p.unbalance_phase_rad
+    return force * math.sin(angle), -force * math.cos(angle)
+
+
+@inline
+def lobe_shift(t, theta, p):
+    """Out-of-round outer race at angle theta, m; the lobes grow over the clearance phase as
+    the clearance does (eq. 14), so the balls do not start inside the race."""
+    ramp = 1.0
+    if t < p.clearance_end_s:
+        ramp = 0.5 * (1.0 - math.cos(math.pi * t / p.clearance_end_s))
+    return ramp * lobe_shift_m(theta, p.lobes, p.lobe_amplitude_m)
+
+
+@inline
+def contact_drop(side, theta, phi, k, p, s):
+    """Drop of the local surface under ball k's contact on ``side`` (physics.defects)."""
+    table, count, radius = p.defect_table, p.defect_count, p.contact_radius_m[side]
+    return surface_drop_m(side, theta, phi, k, s.angle[k], table, count, radius)
 
 
 # Scalar forms of contact.damped_normal_force and contact.coulomb_limit: numpy's maximum, minimum

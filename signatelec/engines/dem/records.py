@@ -20,6 +20,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from signatelec.config.defects import MAX_DEFECTS, MAX_LOAD_TABLE_POINTS
+from signatelec.physics.defects import TABLE_ROWS
+
 #: Scalar parameters of one run (a numpy structured scalar; the kernel reads ``p.dt_s``).
 PARAMS = np.dtype(
     [
@@ -55,6 +58,17 @@ PARAMS = np.dtype(
         ("tangential_stiffness_factor", "f8", (2,)),
         # inner, outer raceway: C_t = factor delta^{1/4} (Hertz) or factor (linear), eq. 5
         ("tangential_damping_factor", "f8", (2,)),
+        # defects and abnormal loads (read only by kernels with their flags, spec.SCENE_FLAGS)
+        ("defect_count", "i8"),
+        ("defect_table", "f8", (TABLE_ROWS, MAX_DEFECTS)),  # physics.defects.defect_table
+        ("contact_radius_m", "f8", (2,)),  # in-plane equivalent radii, inner and outer race
+        ("lobes", "f8"),  # out-of-round outer race: A cos(n theta)
+        ("lobe_amplitude_m", "f8"),
+        ("unbalance_n_s2", "f8"),  # unbalance force / omega^2 (m e), N s^2
+        ("unbalance_phase_rad", "f8"),
+        ("load_table_count", "i8"),
+        ("load_table_time_s", "f8", (MAX_LOAD_TABLE_POINTS,)),  # after the set-up
+        ("load_table_load_n", "f8", (MAX_LOAD_TABLE_POINTS,)),
     ]
 )
 
@@ -100,6 +114,8 @@ class State(NamedTuple):
     # rows N..N+Z-1)
     scratch: np.ndarray
     status: np.ndarray  # (4,) int64, see OK, OVERLAP, NONFINITE
+    # (Z,) ball rotation angles, rad (integrated spin; tracked with ball defects only)
+    angle: np.ndarray
 
 
 class Recording(NamedTuple):
@@ -112,6 +128,7 @@ class Recording(NamedTuple):
     fcon: np.ndarray  # (R, Z, 6), as State.fcon
     sched: np.ndarray  # (R, 4), as State.sched
     energy: np.ndarray  # (R, 4), as State.energy with the kinetic energy in column 3
+    angle: np.ndarray  # (R, Z), as State.angle
 
 
 def new_state(pos: np.ndarray) -> State:
@@ -130,6 +147,7 @@ def new_state(pos: np.ndarray) -> State:
         energy=np.zeros(4),
         scratch=np.zeros((3 * z + 1, 2)),
         status=np.zeros(4, np.int64),
+        angle=np.zeros(z),
     )
 
 
@@ -143,4 +161,5 @@ def new_recording(n_instants: int, z: int) -> Recording:
         fcon=np.zeros((n_instants, z, 6)),
         sched=np.zeros((n_instants, 4)),
         energy=np.zeros((n_instants, 4)),
+        angle=np.zeros((n_instants, z)),
     )

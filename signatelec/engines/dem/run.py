@@ -34,6 +34,7 @@ from signatelec.physics.contact import (
     mindlin_coefficient,
     tangential_stiffness_from_overlap,
 )
+from signatelec.physics.defects import contact_radii_m, defect_table
 from signatelec.physics.laws import scene_law
 from signatelec.physics.stability import stability_limit
 
@@ -97,7 +98,26 @@ def kernel_parameters(scene: Scene) -> np.void:
         p["tangential_stiffness_factor"][side] = kt
         # critical tangential damping 2 sqrt(K_t m*), K_t = factor sqrt(delta): factor delta^{1/4}
         p["tangential_damping_factor"][side] = critical_damping(kt, c.reduced_mass_kg)
+    _abnormal_parameters(scene, p)
     return p
+
+
+def _abnormal_parameters(scene: Scene, p: np.void) -> None:
+    """The defects, the lobes and the abnormal loads of ``scene`` into record ``p``."""
+    p["defect_count"] = len(scene.defects)
+    p["defect_table"] = defect_table(scene, p["defect_table"].shape[1])
+    p["contact_radius_m"] = contact_radii_m(scene.bearing)
+    if scene.housing.out_of_round:
+        p["lobes"] = scene.housing.out_of_round_lobes
+        p["lobe_amplitude_m"] = scene.housing.out_of_round_amplitude_m
+    omega = scene.operating.omega_rad_s
+    if omega > 0.0:  # the kernel scales it with the schedule's speed squared
+        p["unbalance_n_s2"] = scene.loads.unbalance_amplitude_n(omega) / omega**2
+    p["unbalance_phase_rad"] = scene.loads.unbalance_phase_rad
+    times, loads = scene.loads.load_table_time_s, scene.loads.load_table_radial_load_n
+    p["load_table_count"] = len(times)
+    p["load_table_time_s"][: len(times)] = times
+    p["load_table_load_n"][: len(loads)] = loads
 
 
 def initial_state(scene: Scene) -> State:
@@ -119,7 +139,7 @@ def initial_state(scene: Scene) -> State:
 
 def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFrame]:
     z = scene.bearing.n_balls
-    t, pos, vel, spin, fcon, sched, energy = (a[:n_rec] for a in rec)  # Recording order
+    t, pos, vel, spin, fcon, sched, energy, angle = (a[:n_rec] for a in rec)  # Recording order
     ring = 2 * z
     bx, by = pos[:, :z, 0], pos[:, :z, 1]
     r2 = bx * bx + by * by
@@ -170,6 +190,8 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
         signals["cage_angle_rad"] = pos[:, z + 1, 0]
         signals["cage_body_speed_rad_s"] = vel[:, z + 1, 0]
         balls["pocket_force_n"] = fcon[:, :, 4].ravel()
+    if any(d.location == "ball" for d in scene.defects):
+        balls["ball_rotation_rad"] = angle.ravel()  # tracked with ball defects
     if scene.outputs.energy:
         signals["work_in_j"] = energy[:, 0]
         signals["dissipated_j"] = energy[:, 1]

@@ -23,6 +23,11 @@ At each instant:
   compiled, each instant started from the ones before), run to ``TIER_RTOL``: the whole steady
   phase costs about a millisecond;
 - the ball centre lies on its radius where its outer contact overlap is the solved one;
+- defects and abnormal loads (:mod:`signatelec.config.defects`): each ball's clearance at each
+  instant grows by the drop of the defects under its two contacts and by the out-of-round outer
+  race's radius at its angle (the functions of :mod:`signatelec.physics.defects` the DEM kernel
+  inlines, with the kinematic inner-ring angle and ball rotation), and the load at each instant
+  is the tabulated F_r plus the unbalance turning with the ring;
 - the electrical columns come from those loads by
   :func:`signatelec.physics.electrical.bearing_electrics` (seed section 3), exactly as the
   DEM's do.
@@ -70,9 +75,10 @@ from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.scene import Scene
 from signatelec.engines.results import PHASES, SimulationResult, phase_times
 from signatelec.physics.contact import NORMAL_LAWS
+from signatelec.physics.defects import clearance_offsets_m, tabulated_loads_n
 from signatelec.physics.laws import scene_law
 from signatelec.physics.load_distribution import epsilon_from_shift
-from signatelec.physics.quasistatic import ring_equilibrium
+from signatelec.physics.quasistatic import ring_equilibrium, ring_load_xy_n
 from signatelec.physics.ring_equilibrium import RingSolution, solver_loaded
 
 #: Equilibrium residual relative to the load carried: forces to ~1e-10, far below what the tier
@@ -125,28 +131,66 @@ def steady_record_times_s(scene: Scene) -> np.ndarray:
 # --- equilibrium ---------------------------------------------------------------------------------
 
 
-def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingSolution:
+def radial_load_over_time_n(scene: Scene, time_s) -> np.ndarray:
+    """F_r at times (T,) after the set-up: the scene's load table (the rule of the DEM's
+    schedule, physics.defects.tabulated_load_n), else its constant radial_load_n, N."""
+    loads, static = scene.loads, scene.operating.radial_load_n
+    times = np.asarray(loads.load_table_time_s, dtype=float)
+    table = np.asarray(loads.load_table_radial_load_n, dtype=float)
+    end = phase_times(scene)[2]
+    t = np.asarray(time_s, dtype=float)
+    if not times.size:
+        return np.full(t.shape, float(static))
+    return tabulated_loads_n(np.ascontiguousarray(t - end), times, table, float(static))
+
+
+def abnormal_conditions(scene: Scene, ball_angle_rad, time_s):
+    """Each ball's clearance (T, Z) and the load on the ring (T, 2) at ball angles (T, Z) and
+    times (T,) of a scene with defects or abnormal loads."""
+    t = np.asarray(time_s, dtype=float)
+    b, op, loads = scene.bearing, scene.operating, scene.loads
+    phi = inner_ring_angle_rad(scene, t)
+    # the balls roll without slip: spin -omega_c r_p / R_b (Bearing.ball_spin_rad_s)
+    rotation = b.ball_spin_rad_s(1.0) * phi
+    psi = np.asarray(ball_angle_rad, dtype=float)
+    rotation = np.broadcast_to(rotation[:, None], psi.shape)
+    clearance = op.clearance_m + clearance_offsets_m(scene, psi, phi, rotation)
+    static = ring_load_xy_n(b, 0.0, scene.effects.gravity == "standard")  # the ring's weight
+    unbalance = loads.unbalance_amplitude_n(op.omega_rad_s)
+    angle = phi + loads.unbalance_phase_rad
+    load = np.empty((t.size, 2))
+    load[:, 0] = static[0] + unbalance * np.sin(angle)
+    load[:, 1] = static[1] - radial_load_over_time_n(scene, t) - unbalance * np.cos(angle)
+    return clearance, load
+
+
+def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None, time_s=None) -> RingSolution:
     """Quasi-static equilibrium of the scene's inner ring at ball angles (T, Z).
 
     The equations of :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` with the
     scene's contact law (the DEM's coefficients, :func:`signatelec.physics.laws.scene_law`),
     clearance, speed, centrifugal force and gravity, solved by the same compiled Newton
     (:mod:`signatelec.physics.ring_equilibrium`) to ``TIER_RTOL``. ``unit_xy``: the balls'
-    ``(sin psi, -cos psi)`` when the caller has them.
+    ``(sin psi, -cos psi)`` when the caller has them; ``time_s`` (T,) the instants, which a scene
+    with defects or abnormal loads needs (:func:`abnormal_conditions`).
     """
     op, e = scene.operating, scene.effects
     coef, n = scene_law(scene)
+    clearance, load = op.clearance_m, None
+    if scene.abnormal and time_s is not None:
+        clearance, load = abnormal_conditions(scene, ball_angle_rad, time_s)
     return ring_equilibrium(
         ball_angle_rad,
         scene.bearing,
         op.radial_load_n,
-        op.clearance_m,
+        clearance,
         op.omega_rad_s,
         ((float(coef[INNER]), float(coef[OUTER])), float(n)),
         centrifugal=e.centrifugal == "inertial",
         gravity=e.gravity == "standard",
         rtol=TIER_RTOL,
         unit_xy=unit_xy,
+        load_xy_n=load,
     )
 
 
@@ -177,7 +221,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         compile_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     ux, uy = np.sin(psi), -np.cos(psi)
-    eq = solve_ring_equilibrium(scene, psi, (ux, uy))
+    eq = solve_ring_equilibrium(scene, psi, (ux, uy), t)
     run_s = time.perf_counter() - t0
 
     omega = op.omega_rad_s
@@ -209,7 +253,7 @@ def simulate_quasistatic(scene: Scene | None = None, *, progress: bool = False) 
         "delta_r_m": delta_r,
         "epsilon": epsilon_from_shift(delta_r, op.clearance_m),
         "outer_race_radius_m": np.full(n_rec, r_out),
-        "applied_load_n": np.full(n_rec, op.radial_load_n),
+        "applied_load_n": radial_load_over_time_n(scene, t),
         "inner_omega_rad_s": np.full(n_rec, omega),
         "drive_torque_n_m": np.zeros(n_rec),
         "cage_speed_rad_s": np.full(n_rec, omega_c),
