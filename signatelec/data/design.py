@@ -18,9 +18,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from signatelec.config.constraints import CONDITIONS
-from signatelec.config.defects import Defect
 from signatelec.config.scene import Scene
-from signatelec.data.spec import Spec
+from signatelec.data.spec import DEFAULT_SPALL_DEPTH_M, DEFAULT_SPALL_LENGTH_M, Spec, spall_of
 from signatelec.physics.regimes import regime_of, regime_of_epsilon
 
 #: Spawn-key word of the Latin-hypercube streams (trace streams use one-word keys (i,)).
@@ -133,22 +132,8 @@ def operating_point(task: TraceTask, scene: Scene) -> OperatingPoint:
 
 # --- the bearing's condition ------------------------------------------------------------------
 
-#: A spall's size when the design gives none: the length and depth of the defects of
-#: Bourbatache et al. (MSSP 2013) and of the scene format's example, m.
-DEFAULT_SPALL_LENGTH_M = 1.5e-3
-DEFAULT_SPALL_DEPTH_M = 50e-6
 #: An unbalance's force when the design gives none, as a fraction of the trace's F_r.
 DEFAULT_UNBALANCE_FRACTION = 0.1
-
-
-def spall_of(
-    location: str,
-    length_m: float = DEFAULT_SPALL_LENGTH_M,
-    depth_m: float = DEFAULT_SPALL_DEPTH_M,
-    angle_rad: float = 0.0,
-) -> Defect:
-    """One rectangular spall on the outer race, the inner race or ball 0."""
-    return Defect(location=location, angle_rad=angle_rad, length_m=length_m, depth_m=depth_m)
 
 
 def condition_scene(task: TraceTask, scene: Scene) -> Scene:

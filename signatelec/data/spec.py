@@ -52,8 +52,24 @@ from signatelec.config.constraints import (
     Checker,
     row_of,
 )
+from signatelec.config.defects import Defect
 from signatelec.config.scene import Scene, SceneError, read_toml
 from signatelec.measurement.model import MeasurementModel
+
+#: A spall's size when the design gives none: the example of the scene format's ``[[defects]]``
+#: (signatelec.config.defects), m.
+DEFAULT_SPALL_LENGTH_M = 1.5e-3
+DEFAULT_SPALL_DEPTH_M = 50e-6
+
+
+def spall_of(
+    location: str,
+    length_m: float = DEFAULT_SPALL_LENGTH_M,
+    depth_m: float = DEFAULT_SPALL_DEPTH_M,
+    angle_rad: float = 0.0,
+) -> Defect:
+    """One rectangular spall on the outer race, the inner race or ball 0."""
+    return Defect(location=location, angle_rad=angle_rad, length_m=length_m, depth_m=depth_m)
 
 
 class SpecError(ValueError):
@@ -382,8 +398,6 @@ def _check_factor_value(check: Checker, key: str, name: str, value: float, scene
     if name in ("initial_ball_angle_rad", "spall_angle_rad", "unbalance_phase_rad"):
         return
     if name in ("spall_length_m", "spall_depth_m"):
-        from signatelec.data.design import spall_of
-
         size = {name.removeprefix("spall_"): value}
         for location in ("outer", "inner", "ball"):
             try:
