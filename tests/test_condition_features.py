@@ -144,3 +144,19 @@ def test_features_have_their_names_and_are_finite_on_any_length():
         assert all(np.isfinite(v) for v in f.values())
     a = analyse_envelope(spalled_trace("healthy"), FS, OMEGA)
     assert a.cage_revolutions == pytest.approx(0.2 * characteristic_frequencies_hz(OMEGA)["ftf"])
+
+
+def test_twins_match_transformers():
+    from signatelec.estimation import transformers as T
+
+    X = np.stack([spalled_trace(kind, duration_s=0.1) for kind in ("healthy", "inner", "ball")])
+    for transformer, function in zip(
+        T.CONDITION_TRANSFORMERS, CONDITION_GROUPS + (condition_features,), strict=True
+    ):
+        tr = transformer(sample_rate_hz=FS, omega_rad_s=OMEGA).fit(X)
+        out = tr.transform(X)
+        names = list(tr.get_feature_names_out())
+        assert names == function.feature_names()
+        for row, x in zip(out, X, strict=True):
+            d = function(x, FS, OMEGA)
+            np.testing.assert_allclose(row, [d[n] for n in names], rtol=1e-12)

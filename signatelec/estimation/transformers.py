@@ -167,9 +167,12 @@ LineFeatures = _condition_twin("LineFeatures", line_features)
 ImpulseFeatures = _condition_twin("ImpulseFeatures", impulse_features)
 ConditionFeatures = _condition_twin("ConditionFeatures", condition_features)
 
-#: Every transformer: the groups' in the order of
-#: :data:`~signatelec.estimation.features.FEATURE_GROUPS`, then the one of them all; then the
-#: condition groups and the one of them all.
+#: The condition transformers: the groups' in the order of
+#: :data:`~signatelec.estimation.condition_features.CONDITION_GROUPS`, then the one of them all.
+CONDITION_TRANSFORMERS = (EnvelopeFeatures, LineFeatures, ImpulseFeatures, ConditionFeatures)
+
+#: Every load-state transformer: the groups' in the order of
+#: :data:`~signatelec.estimation.features.FEATURE_GROUPS`, then the one of them all.
 TRANSFORMERS = (
     LevelFeatures,
     SpectrumFeatures,
@@ -178,8 +181,4 @@ TRANSFORMERS = (
     NoiseFeatures,
     RippleFeatures,
     TraceFeatures,
-    EnvelopeFeatures,
-    LineFeatures,
-    ImpulseFeatures,
-    ConditionFeatures,
 )
