@@ -57,6 +57,12 @@ CONDITION_LABELS = (
 )
 #: Fewest spalled rows the length model is fitted on.
 MIN_SPALL_ROWS = 10
+#: Share of healthy training traces (out of fold) the condition may call anything but healthy:
+#: the call is healthy unless the probability of healthy falls below the threshold that keeps
+#: this false-alarm rate (a Neyman-Pearson detector on the calibrated probability), so that
+#: spalls too small to leave a signature do not make healthy bearings look defective.
+FALSE_ALARM = 0.005
+HEALTHY = "healthy"
 
 
 def _condition_targets(y) -> tuple[np.ndarray, np.ndarray | None]:
@@ -85,7 +91,9 @@ class ConditionEstimator(ClassifierMixin, _Boosting, BaseEstimator):
     of each row. ``predict`` gives the condition, ``predict_proba`` its probabilities (columns
     ``classes_``), ``predict_frame`` adds ``condition_probability_<class>`` and
     ``spall_length_m`` with ``_low`` and ``_high`` (interval of nominal ``coverage``; NaN on
-    rows whose most probable condition is not a spall).
+    rows whose condition is not a spall). The condition called is healthy while its probability
+    is at least ``healthy_threshold_`` (set on the out-of-fold probabilities of the healthy
+    training rows for a false-alarm rate :data:`FALSE_ALARM`), else the likeliest other one.
     """
 
     coverage: float = DEFAULT_COVERAGE
@@ -100,6 +108,7 @@ class ConditionEstimator(ClassifierMixin, _Boosting, BaseEstimator):
         self.classifier_ = RegimeClassifier(**params).fit(X, labels, groups=groups)
         self.classes_ = self.classifier_.classes_
         self.n_iter_ = self.classifier_.n_iter_
+        self.healthy_threshold_ = _healthy_threshold(self.classifier_, labels)
         self.severity_ = None
         if length is not None:
             spall = np.isin(labels.astype(str), SPALLS) & np.isfinite(length) & (length > 0)
@@ -115,14 +124,25 @@ class ConditionEstimator(ClassifierMixin, _Boosting, BaseEstimator):
         X = validate_data(self, X, reset=False, dtype=np.float64)
         return self.classifier_._proba(X)
 
+    def _call(self, proba: np.ndarray) -> np.ndarray:
+        """The condition called from calibrated probabilities: healthy while its probability
+        is at least ``healthy_threshold_``, else the likeliest other condition."""
+        best = np.argmax(proba, axis=1)
+        if self.healthy_threshold_ is not None:
+            h = int(np.flatnonzero(self.classes_.astype(str) == HEALTHY)[0])
+            others = proba.copy()
+            others[:, h] = -1.0
+            healthy = proba[:, h] >= self.healthy_threshold_
+            best = np.where(healthy, h, np.argmax(others, axis=1))
+        return self.classes_[best]
+
     def predict(self, X) -> np.ndarray:
-        proba = self.predict_proba(X)
-        return self.classes_[np.argmax(proba, axis=1)]
+        return self._call(self.predict_proba(X))
 
     def _predict_columns(self, X: np.ndarray) -> dict[str, np.ndarray]:
         """The columns of :meth:`predict_frame` for validated rows."""
         proba = self.classifier_._proba(X)
-        best = self.classes_[np.argmax(proba, axis=1)]
+        best = self._call(proba)
         out: dict[str, np.ndarray] = {CONDITION_TARGET: best}
         for j, cls in enumerate(self.classes_):
             out[f"{CONDITION_TARGET}_probability_{cls}"] = proba[:, j]
@@ -144,6 +164,20 @@ class ConditionEstimator(ClassifierMixin, _Boosting, BaseEstimator):
         check_is_fitted(self, "classifier_")
         X = validate_data(self, X, reset=False, dtype=np.float64)
         return pd.DataFrame(self._predict_columns(X))
+
+
+def _healthy_threshold(classifier: RegimeClassifier, labels: np.ndarray) -> float | None:
+    """The probability of healthy below which :data:`FALSE_ALARM` of the healthy training rows
+    fall, out of fold (None without healthy rows or out-of-fold predictions: plain argmax)."""
+    classes = classifier.classes_.astype(str)
+    oof = getattr(classifier, "oof_proba_", None)
+    if HEALTHY not in classes or oof is None or classes.size < 2:
+        return None
+    h = int(np.flatnonzero(classes == HEALTHY)[0])
+    rows = (np.asarray(labels).astype(str) == HEALTHY) & ~np.isnan(oof).any(axis=1)
+    if rows.sum() < 10:
+        return None
+    return float(np.quantile(oof[rows, h], FALSE_ALARM))
 
 
 @dataclass

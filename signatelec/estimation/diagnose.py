@@ -71,7 +71,7 @@ def assess_condition(
     out = model.predict_one(feats)
     notes = []
     probs = {c: out[f"condition_probability_{c}"] for c in model.estimator.classes_}
-    best = max(probs, key=probs.get)
+    best = out["condition"]
     out["condition_confident"] = bool(probs[best] >= CONFIDENT_CONDITION)
     out["condition_in_domain_score"] = score
     if not out["condition_confident"]:

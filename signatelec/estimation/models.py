@@ -255,6 +255,11 @@ class RegimeClassifier(ClassifierMixin, _Boosting, BaseEstimator):
         done = ~np.isnan(oof).any(axis=1)
         if done.sum() >= 10:
             self.temperature_ = _fit_temperature(oof[done], y_index[done])
+        # calibrated out-of-fold probabilities (NaN where no fold predicted): what a decision
+        # threshold is set on
+        self.oof_proba_ = np.full_like(oof, np.nan)
+        if done.any():
+            self.oof_proba_[done] = _softmax_log(oof[done], self.temperature_)
         return self
 
     def _proba(self, X: np.ndarray) -> np.ndarray:

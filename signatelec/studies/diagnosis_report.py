@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.ticker import NullFormatter
 
 from signatelec.config.catalogue import catalogue_bearing
 from signatelec.config.scene import Scene
@@ -110,6 +111,12 @@ def markdown(table: pd.DataFrame, pred: pd.DataFrame, info: dict) -> str:
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in acc.itertuples():
+        r = r._replace(
+            **{
+                k: int(getattr(r, k))
+                for k in ("healthy", "spalls_wide", "spalls_narrow", "unbalance")
+            }
+        )
         lines.append(
             f"| {r.group} | {r.windows} | {_pct(r.healthy_flagged)} of {r.healthy} | "
             f"{_pct(r.wide_detected)} of {r.spalls_wide} | {_pct(r.wide_type_right)} | "
@@ -177,6 +184,8 @@ def plot_curves(table: pd.DataFrame, path: Path) -> None:
         mids = [np.sqrt(np.prod([float(x) for x in s.split()[1].split("-")])) for s in g["group"]]
         ax[0].plot(mids, g["wide_detected"], "o-", label=condition)
     ax[0].axvline(1.0, color="k", lw=0.8, ls="--")
+    for a in ax:
+        a.xaxis.set_minor_formatter(NullFormatter())
     ax[0].set(
         xscale="log",
         ylim=(-0.02, 1.02),
