@@ -61,22 +61,27 @@ class _TraceTransformer(TransformerMixin, BaseEstimator):
             raise ValueError(f"n_harmonics = {self.n_harmonics!r}: must be an integer >= 1")
         return self
 
+    def _names(self) -> list[str]:
+        return self._function.feature_names(self.n_harmonics)
+
+    def _analyse(self, row: np.ndarray):
+        return analyse_trace(
+            row, self.sample_rate_hz, self.omega_rad_s, n_harmonics=self.n_harmonics
+        )
+
     def transform(self, X):
         check_is_fitted(self, "n_features_in_")
         X = validate_data(self, X, dtype=np.float64, reset=False)
-        names = self._function.feature_names(self.n_harmonics)
+        names = self._names()
         out = np.empty((X.shape[0], len(names)))
         for i, row in enumerate(X):
-            a = analyse_trace(
-                row, self.sample_rate_hz, self.omega_rad_s, n_harmonics=self.n_harmonics
-            )
-            d = self._function(None, analysis=a)
+            d = self._function(None, analysis=self._analyse(row))
             out[i] = [d[n] for n in names]
         return out
 
     def get_feature_names_out(self, input_features=None):
         check_is_fitted(self, "n_features_in_")
-        return np.asarray(self._function.feature_names(self.n_harmonics), dtype=object)
+        return np.asarray(self._names(), dtype=object)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -131,20 +136,11 @@ class _ConditionTransformer(_TraceTransformer):
             raise ValueError(f"bearing = {self.bearing!r}: must be a Bearing or None")
         return self
 
-    def transform(self, X):
-        check_is_fitted(self, "n_features_in_")
-        X = validate_data(self, X, dtype=np.float64, reset=False)
-        names = self._function.feature_names()
-        out = np.empty((X.shape[0], len(names)))
-        for i, row in enumerate(X):
-            a = analyse_envelope(row, self.sample_rate_hz, self.omega_rad_s, bearing=self.bearing)
-            d = self._function(None, analysis=a)
-            out[i] = [d[n] for n in names]
-        return out
+    def _names(self) -> list[str]:
+        return self._function.feature_names()
 
-    def get_feature_names_out(self, input_features=None):
-        check_is_fitted(self, "n_features_in_")
-        return np.asarray(self._function.feature_names(), dtype=object)
+    def _analyse(self, row: np.ndarray):
+        return analyse_envelope(row, self.sample_rate_hz, self.omega_rad_s, bearing=self.bearing)
 
 
 def _condition_twin(name: str, function) -> type[_ConditionTransformer]:

@@ -42,8 +42,14 @@ from signatelec.data import generate as generate_dataset
 from signatelec.data import spec_from_dict
 from signatelec.estimation.condition_features import condition_features
 from signatelec.estimation.features import trace_features
-from signatelec.measurement.model import MeasurementDraw, MeasurementModel
-from signatelec.studies.load_state import OFFSET_OHM, QUANTISATION_OHM, load_runs
+from signatelec.measurement.model import MeasurementModel
+from signatelec.studies.load_state import (
+    QUANTISATION_OHM,
+    fixed_draw,
+    load_runs,
+    train_draw,
+)
+from signatelec.studies.load_state_metrics import ACCEPT_NOISE
 
 #: The bearings of the study: the seed's 6208 and a catalogue bearing of another size.
 BEARINGS = ("seed", "6205")
@@ -52,13 +58,11 @@ TEST_RUNS = {"healthy": 40, "outer": 15, "inner": 15, "ball": 15, "unbalance": 1
 #: Acceptance windows per test run: the whole 0.2 s measured with independent noise draws
 #: (the runs, not the windows, are independent draws of the load state and the defect).
 ACCEPT_DRAWS = 3
-#: Measured windows per training run (each its own noise draw).
+#: Measured windows per training run, each its own draw of the load-state study's training
+#: measurement (white noise 0.05-1 % log-uniform, drift up to 0.1 %, offset +-20 uOhm).
 TRAIN_DRAWS = 2
-TRAIN_NOISE = (5e-4, 1e-2)  # log-uniform
-TRAIN_DRIFT = (0.0, 1e-3)
-#: The acceptance condition: 0.2 % white noise, 0.05 % drift, 0.2 s at 20 kHz.
-ACCEPT_NOISE = 2e-3
-ACCEPT_DRIFT = 5e-4
+#: The acceptance condition is the load-state study's (ACCEPT_NOISE, ACCEPT_DRIFT: 0.2 % white
+#: noise, 0.05 % drift), here over 0.2 s at 20 kHz.
 NOISE_SCAN = (5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2)
 #: First spawn-key words of the measurement draws (training, acceptance, noise scan).
 TRAIN_KEY, ACCEPT_KEY, SCAN_KEY = 500, 501, 600
@@ -127,22 +131,6 @@ def generate(
 
 
 # --- 2. features -------------------------------------------------------------------------------
-
-
-def train_draw(rng: np.random.Generator) -> MeasurementDraw:
-    lo, hi = np.log(TRAIN_NOISE)
-    return MeasurementDraw(
-        noise_fraction=float(np.exp(rng.uniform(lo, hi))),
-        drift_fraction=float(rng.uniform(*TRAIN_DRIFT)),
-        offset_ohm=float(rng.uniform(-OFFSET_OHM, OFFSET_OHM)),
-    )
-
-
-def fixed_draw(noise: float, drift: float = ACCEPT_DRIFT):
-    def draw(rng: np.random.Generator) -> MeasurementDraw:
-        return MeasurementDraw(noise, drift, float(rng.uniform(-OFFSET_OHM, OFFSET_OHM)))
-
-    return draw
 
 
 #: Run labels carried into the feature rows.
