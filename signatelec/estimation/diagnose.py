@@ -6,7 +6,9 @@ one:
 
 - a trace shorter than :data:`~signatelec.estimation.envelope.MIN_CAGE_REVOLUTIONS` cage
   revolutions is not assessed (a ball's spall is in the load zone once per cage revolution,
-  and its lines 2 BSF -+ FTF are not resolved over less);
+  and its lines 2 BSF -+ FTF are not resolved over less), nor one shorter (in cage
+  revolutions, less 5 %) than the shortest trace the condition model learnt from (the lines'
+  heights over their floors grow with the length);
 - condition features unlike every training trace (in-domain score below
   :data:`~signatelec.estimation.domain.REFUSE_SCORE`) are not assessed; below
   :data:`~signatelec.estimation.domain.WARN_SCORE` the answer carries a warning;
@@ -54,11 +56,16 @@ def assess_condition(
     are its load-state features (:func:`~signatelec.estimation.features.trace_features`)."""
     analysis = analyse_envelope(resistance_ohm, sample_rate_hz, omega_rad_s, bearing=bearing)
     revolutions = analysis.cage_revolutions
-    if revolutions < MIN_CAGE_REVOLUTIONS:
-        need = MIN_CAGE_REVOLUTIONS / analysis.lines_hz["ftf"]
+    # the lines' heights over their floors grow with the trace's length: fewer revolutions than
+    # the shortest training trace is an extrapolation the model was not asked to make
+    trained = model.info.get("ranges", {}).get("cage_revolutions", (0.0, 0.0))[0]
+    least = max(MIN_CAGE_REVOLUTIONS, 0.95 * trained)
+    if revolutions < least:
+        need = least / analysis.lines_hz["ftf"]
         return _none(model), [
             f"condition not assessed: the trace spans {revolutions:.1f} cage revolutions, "
-            f"{MIN_CAGE_REVOLUTIONS:g} are needed (at least {need * 1e3:.0f} ms at this speed)"
+            f"{least:.2g} are needed (at least {need * 1e3:.0f} ms at this speed; the "
+            f"condition model learnt from traces of {trained:.2g} or more)"
         ]
     feats = {**trace_features, **condition_features(None, analysis=analysis)}
     score = model.domain.score(feats)
