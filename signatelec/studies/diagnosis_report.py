@@ -30,6 +30,12 @@ def _rate(mask: np.ndarray) -> float:
     return float(np.mean(mask)) if mask.size else float("nan")
 
 
+def _finite_mean(x: np.ndarray) -> float:
+    """Mean of the finite values (NaN without any: rows no load-state model answered)."""
+    x = x[np.isfinite(x)]
+    return float(x.mean()) if x.size else float("nan")
+
+
 def group_figures(rows: pd.DataFrame) -> dict:
     """Detection figures of one group of test rows (module docstring of the study)."""
     cond = rows["condition"].astype(str).to_numpy()
@@ -55,9 +61,9 @@ def group_figures(rows: pd.DataFrame) -> dict:
         "unbalance": int(unbalance.sum()),
         "unbalance_right": _rate(pred[unbalance] == "unbalance"),
         "accuracy": _rate(pred == cond),
-        "fr_mape_healthy": float(np.nanmean(ape[healthy])) if healthy.any() else np.nan,
-        "fr_mape_spall": float(np.nanmean(ape[spall])) if spall.any() else np.nan,
-        "fr_mape_unbalance": float(np.nanmean(ape[unbalance])) if unbalance.any() else np.nan,
+        "fr_mape_healthy": _finite_mean(ape[healthy]),
+        "fr_mape_spall": _finite_mean(ape[spall]),
+        "fr_mape_unbalance": _finite_mean(ape[unbalance]),
     }
 
 
