@@ -21,6 +21,7 @@ from signatelec.physics.kinematics import (
     ball_pass_frequency_outer_hz,
     ball_spin_frequency_hz,
     cage_frequency_hz,
+    characteristic_frequencies_hz,
     characteristic_orders,
     expected_ball_pass_hz,
     shaft_frequency_hz,
@@ -134,3 +135,22 @@ def test_contact_angle_keeps_the_ball_pass_sum(alpha_deg):
 def test_contact_angle_outside_its_range_is_refused(alpha):
     with pytest.raises(BearingError, match=r"contact_angle_rad = .*: must be a number in"):
         cage_frequency_hz(OMEGA_RAD_S, Bearing(), alpha)
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("name", CWRU)
+def test_characteristic_frequencies_at_the_measured_speed(name):
+    # The one call the envelope analysis makes: every line at the measured shaft speed, the
+    # ball-defect line at 2 BSF (CWRU's "rolling element" multiplier).
+    n_balls, ball_in, pitch_in, (bpfi, bpfo, ftf, ball_defect) = CWRU[name]
+    b = published_geometry(n_balls, ball_in, pitch_in)
+    for rpm in (1730.0, 1797.0):
+        omega = 2.0 * math.pi * rpm / 60.0
+        f = characteristic_frequencies_hz(omega, b)
+        shaft = rpm / 60.0
+        assert f["shaft"] == pytest.approx(shaft, rel=1e-14)
+        assert f["bpfi"] / shaft == pytest.approx(bpfi, rel=CWRU_REL)
+        assert f["bpfo"] / shaft == pytest.approx(bpfo, rel=CWRU_REL)
+        assert f["ftf"] / shaft == pytest.approx(ftf, rel=CWRU_REL)
+        assert f["ball_defect"] / shaft == pytest.approx(ball_defect, rel=CWRU_REL)
+        assert f["ball_defect"] == pytest.approx(2.0 * f["bsf"], rel=1e-14)

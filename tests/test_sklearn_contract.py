@@ -15,7 +15,7 @@ from sklearn.base import BaseEstimator
 from sklearn.utils.estimator_checks import parametrize_with_checks
 from threadpoolctl import threadpool_limits
 
-from signatelec.estimation import models, transformers
+from signatelec.estimation import condition, models, transformers
 
 #: Parameters that make an estimator quick to fit in the checks (where it takes them).
 QUICK = {"max_iter": 20, "n_splits": 2}
@@ -35,7 +35,7 @@ def _defined(*modules) -> list[type[BaseEstimator]]:
     return found
 
 
-ESTIMATORS = _defined(transformers, models)
+ESTIMATORS = _defined(transformers, models, condition)
 
 
 def _quick(cls: type[BaseEstimator]) -> BaseEstimator:
@@ -53,6 +53,7 @@ def _one_thread():
 def test_every_estimator_is_checked():
     names = {cls.__name__ for cls in ESTIMATORS}
     assert {"IntervalRegressor", "RegimeClassifier", "LoadStateEstimator"} <= names
+    assert "ConditionEstimator" in names
     assert {cls.__name__ for cls in transformers.TRANSFORMERS} <= names
 
 

@@ -1,4 +1,4 @@
-"""``signatelec study ...``: the accuracy-cost study and the operating map."""
+"""``signatelec study ...``: the accuracy-cost study, the operating map and the diagnosis study."""
 
 from __future__ import annotations
 
@@ -157,3 +157,49 @@ def monitor_study(out, bank_dir, quick, quiet):
     if not quiet:
         for path in paths.values():
             click.echo(f"wrote {path}")
+
+
+@study.command("diagnosis")
+@click.option("--out", "out", type=str, required=True, help="Output directory.")
+@click.option(
+    "--quick",
+    is_flag=True,
+    help="Three training runs and one test run per condition and bearing, all at the fast "
+    "preset: a pipeline check.",
+)
+@click.option("--fresh", is_flag=True, help="Measure the cached runs' features again.")
+@click.option("--workers", type=int, default=0, show_default=True, help="Worker processes.")
+@click.option("--quiet", is_flag=True, help="No progress or file list.")
+def diagnosis(out, quick, fresh, workers, quiet):
+    """Condition model on held-out paper-fidelity runs: DIR/diagnosis.{parquet,md,png} and
+    DIR/signatures.png; the runs are cached in DIR/.cache (an interrupted study resumes)."""
+    from pathlib import Path
+
+    from signatelec.io import holds_only, write_marker
+    from signatelec.studies.diagnosis import DEFAULT_SPEC, run_study
+
+    if workers < 0:
+        raise InputError(f"--workers {workers}: must be >= 0")
+    own = ("diagnosis.parquet", "diagnosis.md", "diagnosis.png", "signatures.png", ".cache")
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, "study diagnosis", previous=previous, replaced=False)
+    try:
+        run_study(
+            Path(out) / ".cache",
+            Path(out),
+            DEFAULT_SPEC,
+            quick=quick,
+            reuse=not fresh,
+            workers=workers,
+            log=(lambda m: None) if quiet else click.echo,
+        )
+        write_marker(out, "study diagnosis")
+    except OSError as exc:
+        raise Stopped(
+            f"--out {out!r}: cannot write there ({exc.strerror or exc}); finished runs are kept "
+            "in DIR/.cache: rerun the same command to resume",
+            EXIT_INCOMPLETE,
+        ) from None
+    if not quiet:
+        for name in own[:-1]:
+            click.echo(f"wrote {Path(out) / name}")

@@ -508,7 +508,10 @@ SCENE = (
 DESIGN_KINDS = ("grid", "random", "latin_hypercube")
 #: Factors a design may vary. radial_load_n | radial_load_fraction (of C_r) and
 #: clearance_m | epsilon (seed eq. 15, solved quasi-statically for the clearance) exclude each
-#: other; a factor not given keeps the base scene's value.
+#: other; a factor not given keeps the base scene's value. ``condition`` (text levels of
+#: :data:`CONDITIONS`) puts one spall of ``spall_length_m`` by ``spall_depth_m`` at
+#: ``spall_angle_rad`` on the outer race, the inner race or ball 0, or an unbalance of
+#: ``unbalance_force_n`` at ``unbalance_phase_rad`` (signatelec.config.defects).
 FACTORS = (
     "radial_load_n",
     "radial_load_fraction",
@@ -516,7 +519,15 @@ FACTORS = (
     "epsilon",
     "omega_rad_s",
     "initial_ball_angle_rad",
+    "condition",
+    "spall_length_m",
+    "spall_depth_m",
+    "spall_angle_rad",
+    "unbalance_force_n",
+    "unbalance_phase_rad",
 )
+#: The conditions of a bearing a dataset labels and the condition model tells apart.
+CONDITIONS = ("healthy", "outer", "inner", "ball", "unbalance")
 #: Largest target epsilon a spec may ask for (a preload; at small loads epsilon grows fast).
 EPSILON_MAX = 20.0
 MAX_TRACES = 1_000_000
@@ -546,6 +557,7 @@ DESIGN = (
 #: rules then apply to each (load, clearance and speed limits), and to epsilon its range.
 FACTOR = (
     Constraint("factor", "number", NUMBER),
+    Constraint("factor", "condition", CHOICE, choices=CONDITIONS),
     Constraint("factor", "levels", INTEGER, 1, MAX_GRID_LEVELS),
     Constraint("factor", "scale", CHOICE, choices=SCALES),
     Constraint(

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from signatelec.config.constraints import CONDITIONS
 from signatelec.config.scene import Scene
-from signatelec.data.spec import Spec
+from signatelec.data.spec import DEFAULT_SPALL_DEPTH_M, DEFAULT_SPALL_LENGTH_M, Spec, spall_of
 from signatelec.physics.regimes import regime_of, regime_of_epsilon
 
 #: Spawn-key word of the Latin-hypercube streams (trace streams use one-word keys (i,)).
@@ -38,10 +39,10 @@ class TraceTask:
 
     trace_id: int
     block: int
-    values: tuple[tuple[str, float], ...]
+    values: tuple[tuple[str, float | str], ...]
 
     @property
-    def factors(self) -> dict[str, float]:
+    def factors(self) -> dict[str, float | str]:
         return dict(self.values)
 
 
@@ -84,7 +85,9 @@ def design_traces(spec: Spec) -> list[TraceTask]:
                 [f.from_unit(x) for f, x in zip(block.factors, row, strict=False)] for row in sample
             ]
         for k, row in enumerate(rows):
-            values = tuple((n, float(v)) for n, v in zip(names, row, strict=True))
+            values = tuple(
+                (n, v if isinstance(v, str) else float(v)) for n, v in zip(names, row, strict=True)
+            )
             tasks.append(TraceTask(first + k, block_index, values))
     return tasks
 
@@ -125,3 +128,61 @@ def operating_point(task: TraceTask, scene: Scene) -> OperatingPoint:
         clearance_m=f.get("clearance_m", op.clearance_m) if math.isnan(target) else math.nan,
         epsilon_target=target,
     )
+
+
+# --- the bearing's condition ------------------------------------------------------------------
+
+#: An unbalance's force when the design gives none, as a fraction of the trace's F_r.
+DEFAULT_UNBALANCE_FRACTION = 0.1
+
+
+def condition_scene(task: TraceTask, scene: Scene) -> Scene:
+    """``scene`` with the condition the task's factors ask for (none: the base scene's): a
+    spall (``spall_length_m``, ``spall_depth_m``, ``spall_angle_rad``) or an unbalance
+    (``unbalance_force_n``, default :data:`DEFAULT_UNBALANCE_FRACTION` of F_r;
+    ``unbalance_phase_rad``). SceneError when the scene does not allow it."""
+    f = task.factors
+    condition = f.get("condition")
+    if condition is None or condition == "healthy":
+        return scene
+    if condition == "unbalance":
+        force = f.get(
+            "unbalance_force_n", DEFAULT_UNBALANCE_FRACTION * scene.operating.radial_load_n
+        )
+        return scene.with_overrides(
+            unbalance_force_n=force, unbalance_phase_rad=f.get("unbalance_phase_rad", 0.0)
+        )
+    spall = spall_of(
+        str(condition),
+        f.get("spall_length_m", DEFAULT_SPALL_LENGTH_M),
+        f.get("spall_depth_m", DEFAULT_SPALL_DEPTH_M),
+        f.get("spall_angle_rad", 0.0),
+    )
+    return replace(scene, defects=(*scene.defects, spall))
+
+
+def condition_labels(scene: Scene) -> dict:
+    """The condition labels of the scene a trace simulates: ``condition`` (the first defect's
+    location, else ``unbalance`` when a load turns with the shaft, else ``healthy``), the first
+    spall's ``spall_length_m``, ``spall_depth_m``, ``spall_angle_rad`` (NaN without one) and
+    ``unbalance_force_n`` (0 without one)."""
+    unbalance = scene.loads.unbalance_amplitude_n(scene.operating.omega_rad_s)
+    nan = math.nan
+    labels = {
+        "condition": CONDITIONS[0],
+        "spall_length_m": nan,
+        "spall_depth_m": nan,
+        "spall_angle_rad": nan,
+        "unbalance_force_n": unbalance,
+    }
+    if scene.defects:
+        d = scene.defects[0]
+        labels.update(
+            condition=d.location,
+            spall_length_m=d.length_m,
+            spall_depth_m=d.depth_m,
+            spall_angle_rad=d.angle_rad,
+        )
+    elif unbalance > 0.0:
+        labels["condition"] = "unbalance"
+    return labels

@@ -18,7 +18,13 @@ import numpy as np
 
 from signatelec.config.constraints import Checker
 from signatelec.config.scene import Scene, SceneError
-from signatelec.data.design import TraceTask, operating_point, trace_rng
+from signatelec.data.design import (
+    TraceTask,
+    condition_labels,
+    condition_scene,
+    operating_point,
+    trace_rng,
+)
 from signatelec.data.spec import Spec, SpecError, TraceContext
 from signatelec.measurement.model import MeasurementError, MeasurementModel
 from signatelec.physics.regimes import regime_of
@@ -176,11 +182,23 @@ def _new_record(ctx: TraceContext, task: TraceTask) -> dict[str, Any]:
         "max_ball_load_n": nan,
         "ball_pass_frequency_hz": b.ball_pass_frequency_hz(point.omega_rad_s),
         "cpu_s": nan,
+        **_design_condition(ctx, task),
         **dict.fromkeys(SIGNALS, np.zeros(0)),
         "signal": ctx.signal,
         # the regime from the design, kept when the clearance cannot be had
         "regime": point.design_regime,
     }
+
+
+def _design_condition(ctx: TraceContext, task: TraceTask) -> dict:
+    """The condition labels the design asks for (kept when the scene cannot be had)."""
+    try:
+        return condition_labels(condition_scene(task, ctx.scene))
+    except SceneError:
+        f = task.factors
+        labels = condition_labels(ctx.scene)
+        labels["condition"] = str(f.get("condition", labels["condition"]))
+        return labels
 
 
 def _solve_clearance(ctx: TraceContext, rec: dict) -> float:
@@ -217,6 +235,8 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
                 omega_rad_s=rec["omega_rad_s"],
                 initial_ball_angle_rad=rec["initial_ball_angle_rad"],
             )
+            scene = condition_scene(task, scene)
+            rec.update(condition_labels(scene))
             scene, t0, n = trace_scene(ctx, scene)
             dt = scene.numerics.dt_s
             rec["dt_s"], rec["integrator"] = dt, scene.numerics.integrator

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -52,8 +52,24 @@ from signatelec.config.constraints import (
     Checker,
     row_of,
 )
+from signatelec.config.defects import Defect
 from signatelec.config.scene import Scene, SceneError, read_toml
 from signatelec.measurement.model import MeasurementModel
+
+#: A spall's size when the design gives none: the example of the scene format's ``[[defects]]``
+#: (signatelec.config.defects), m.
+DEFAULT_SPALL_LENGTH_M = 1.5e-3
+DEFAULT_SPALL_DEPTH_M = 50e-6
+
+
+def spall_of(
+    location: str,
+    length_m: float = DEFAULT_SPALL_LENGTH_M,
+    depth_m: float = DEFAULT_SPALL_DEPTH_M,
+    angle_rad: float = 0.0,
+) -> Defect:
+    """One rectangular spall on the outer race, the inner race or ball 0."""
+    return Defect(location=location, angle_rad=angle_rad, length_m=length_m, depth_m=depth_m)
 
 
 class SpecError(ValueError):
@@ -200,6 +216,7 @@ _SCENE_RESERVED = {
 }
 _NUMBER = row_of(FACTOR, "factor", "number")
 _EPSILON = row_of(FACTOR, "factor", "epsilon")
+_CONDITION = row_of(FACTOR, "factor", "condition")
 
 
 def load_spec(path: str | Path) -> Spec:
@@ -344,6 +361,8 @@ def _factor(check: Checker, key: str, name: str, raw: Any, kind: str, scene: Sce
         check.fail(f"{key}.levels", raw["levels"], "only for a min/max range in a grid design")
     if "scale" in raw and "min" not in raw:
         check.fail(f"{key}.scale", raw["scale"], "only for a min/max range")
+    if name == "condition":
+        return _condition_factor(check, key, raw)
     if "value" in raw:
         factor = Factor(name, "value", (check.check(_NUMBER, raw["value"], f"{key}.value"),))
         checked = [(f"{key}.value", factor.values[0])]
@@ -376,12 +395,36 @@ def _factor(check: Checker, key: str, name: str, raw: Any, kind: str, scene: Sce
     return factor
 
 
+def _condition_factor(check: Checker, key: str, raw: dict) -> Factor:
+    """The ``condition`` factor: text levels among CONDITIONS (a value or values only)."""
+    if "min" in raw:
+        check.fail(key, raw, "a condition takes {value = ...} or {values = [...]}, not a range")
+    values = [raw["value"]] if "value" in raw else raw["values"]
+    if not isinstance(values, list) or not values:
+        check.fail(f"{key}.values", values, "must be a non-empty array of conditions")
+    where = f"{key}.value" if "value" in raw else f"{key}.values"
+    vals = tuple(
+        check.check(_CONDITION, v, where if "value" in raw else f"{where}[{i}]")
+        for i, v in enumerate(values)
+    )
+    return Factor("condition", "value" if "value" in raw else "values", vals)
+
+
 def _check_factor_value(check: Checker, key: str, name: str, value: float, scene: Scene) -> None:
-    """The scene's own rule for the factor (load, clearance and speed limits)."""
+    """The scene's own rule for the factor (load, clearance and speed limits; a spall's size
+    on the bearing's surfaces, the unbalance within the load limit)."""
     if name == "epsilon":
         check.check(_EPSILON, value, key)
         return
-    if name == "initial_ball_angle_rad":
+    if name in ("initial_ball_angle_rad", "spall_angle_rad", "unbalance_phase_rad"):
+        return
+    if name in ("spall_length_m", "spall_depth_m"):
+        size = {name.removeprefix("spall_"): value}
+        for location in ("outer", "inner", "ball"):
+            try:
+                replace(scene, defects=(spall_of(location, **size),))
+            except SceneError as exc:
+                check.fail(key, value, str(exc).split(": ", 1)[-1])
         return
     if name == "radial_load_fraction":
         changes = {"radial_load_n": value * scene.bearing.dynamic_load_rating_n}

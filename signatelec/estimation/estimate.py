@@ -1,4 +1,6 @@
-"""The load state of one measured trace: F_r, epsilon and clearance with intervals, the regime.
+"""The load state of one measured trace: F_r, epsilon and clearance with intervals, the regime;
+and the bearing's condition beside it (:mod:`signatelec.estimation.diagnose`) when the model
+carries a condition model.
 
 :func:`estimate` screens the trace (:func:`signatelec.measurement.sanity.screen_trace`: set-up
 transient cut off, level in the model's trained range, ball-pass ripple found at the frequency
@@ -16,7 +18,10 @@ TraceError`); an in-domain score below
 :data:`~signatelec.estimation.domain.REFUSE_SCORE`, and a trace without a ball-pass line whose
 features are unlike the training traces' too (score below
 :data:`~signatelec.estimation.domain.NO_LINE_REFUSE_SCORE`)
-(:class:`~signatelec.estimation.domain.DomainError`). A trace without a line but like the
+(:class:`~signatelec.estimation.domain.DomainError`), unless the condition model calls a defect
+or an unbalance confidently: its signature may take the trace out of the load-state domain, so
+the condition is answered and the load state left out, with a note. A trace without a line but
+like the
 training traces is answered with a warning and no confident regime: where the load zone's edge
 sits on a zero of the ripple's first harmonic (epsilon about 0.35-0.43 or 0.525-0.55) a running
 bearing shows no line within 0.2 % noise over 50 ms, and the model has learnt those states; the
@@ -30,6 +35,7 @@ from __future__ import annotations
 
 import math
 
+from signatelec.estimation.diagnose import assess_condition
 from signatelec.estimation.domain import (
     NO_LINE_REFUSE_SCORE,
     REFUSE_SCORE,
@@ -39,6 +45,7 @@ from signatelec.estimation.domain import (
 from signatelec.estimation.features import trace_features
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.sanity import screen_trace
+from signatelec.measurement.traces import TraceError
 from signatelec.physics.regimes import REGIMES
 
 #: A regime call at or above this probability is reported as confident. Measured on held-out
@@ -54,27 +61,56 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
     ``*_high`` (interval of nominal ``interval_coverage``), ``regime``,
     ``regime_probability_<regime>`` and ``regime_confident`` (top probability at least
     :data:`CONFIDENT_PROBABILITY`, and a ball-pass line found), ``in_domain_score``, and notes
-    on the trace, the ripple and the model's range. Raises TraceError or DomainError (one
-    line) when the trace cannot carry an answer (module docstring).
+    on the trace, the ripple and the model's range; with a condition model, ``condition``,
+    ``condition_probability_<name>``, ``condition_confident``, ``spall_length_m`` with
+    ``_low`` and ``_high`` and ``condition_in_domain_score``
+    (:func:`~signatelec.estimation.diagnose.assess_condition`). Raises TraceError or
+    DomainError (one line) when the trace cannot carry an answer (module docstring).
     """
     domain = model.domain
-    screened = screen_trace(trace, omega_rad_s, domain.level_range_ohm)
+    screened = screen_trace(
+        trace, omega_rad_s, domain.level_range_ohm, defect_lines=model.condition is not None
+    )
     trace, ripple = screened.trace, screened.ripple
     notes = list(screened.notes)
     feats = trace_features(trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s)
+    condition: dict = {}
+    if model.condition is not None:
+        condition, condition_notes = assess_condition(
+            trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s, feats, model.condition
+        )
+        notes += condition_notes
+    if screened.defect_line is not None:
+        # the strongest line is a defect's, not the ball-pass ripple: only a confident call of
+        # that very condition explains it; otherwise it is a wrong --omega, as the layer says
+        kind, name = screened.defect_line
+        if not (_confident_fault(condition) and condition["condition"] == kind):
+            raise TraceError(f"{trace.source}: {ripple.problem()}")
+        notes.append(
+            f"the strongest line ({ripple.frequency_hz:.1f} Hz) is the {name} line of the "
+            f"{kind} condition, not the ball-pass ripple"
+        )
     score = domain.score(feats)
     where = trace.source
+    problem = None
     if ripple.status == "none" and score < NO_LINE_REFUSE_SCORE:
-        raise DomainError(
+        problem = (
             f"{where}: {ripple.problem()} (no line, and the trace is unlike the training "
             f"traces: in-domain score {score:.2g})"
         )
-    if score < REFUSE_SCORE:
-        raise DomainError(
+    elif score < REFUSE_SCORE:
+        problem = (
             f"{where}: unlike every training trace (in-domain score {score:.2g} < "
             f"{REFUSE_SCORE:g}; farthest: {', '.join(domain.farthest(feats))})"
         )
-    out = model.predict_one(feats)
+    if problem is not None:
+        if not _confident_fault(condition):
+            raise DomainError(problem)
+        # a confident defect whose signature takes the trace out of the load-state domain:
+        # the condition is the answer, the load state is not given
+        notes.append(f"load state not estimated: {problem.split(': ', 1)[-1]}")
+        return _result(condition, notes, trace, feats, ripple, model)
+    out = model.predict_one(feats) | condition
     out["interval_coverage"] = model.info.get("coverage", DEFAULT_COVERAGE)
     out["in_domain_score"] = score
     if score < WARN_SCORE:
@@ -104,9 +140,20 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
                 f"{CONFIDENT_PROBABILITY:.0%}); these load states give resistance signatures "
                 "alike within this trace's noise, so a longer or quieter trace is needed to tell"
             )
+    return _result(out, notes, trace, feats, ripple, model, omega_rad_s)
+
+
+def _confident_fault(condition: dict) -> bool:
+    """A confident condition other than healthy."""
+    c = condition.get("condition")
+    return c not in (None, "healthy") and bool(condition.get("condition_confident"))
+
+
+def _result(out, notes, trace, feats, ripple, model, omega_rad_s=None) -> dict:
+    """The estimate with its notes, the trace's figures and the model's summary."""
     ranges = model.info.get("ranges", {})
     lo, hi = ranges.get("omega_rad_s", (None, None))
-    if lo is not None and not lo <= omega_rad_s <= hi:
+    if omega_rad_s is not None and lo is not None and not lo <= omega_rad_s <= hi:
         notes.append(
             f"omega {omega_rad_s:g} rad/s is outside the training range {lo:.0f}-{hi:.0f} rad/s: "
             "extrapolating"

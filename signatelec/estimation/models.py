@@ -255,6 +255,11 @@ class RegimeClassifier(ClassifierMixin, _Boosting, BaseEstimator):
         done = ~np.isnan(oof).any(axis=1)
         if done.sum() >= 10:
             self.temperature_ = _fit_temperature(oof[done], y_index[done])
+        # calibrated out-of-fold probabilities (NaN where no fold predicted): what a decision
+        # threshold is set on
+        self.oof_proba_ = np.full_like(oof, np.nan)
+        if done.any():
+            self.oof_proba_[done] = _softmax_log(oof[done], self.temperature_)
         return self
 
     def _proba(self, X: np.ndarray) -> np.ndarray:
@@ -422,14 +427,17 @@ class LoadStateEstimator(_Boosting, BaseEstimator):
 class LoadStateModel:
     """A fitted :class:`LoadStateEstimator` with what it needs to be used and trusted: the
     feature columns it reads, in order, ``info`` on its training (source, rows, runs,
-    targets, coverage, ranges of the labels, of omega and of the level) and the ``domain`` of
+    targets, coverage, ranges of the labels, of omega and of the level), the ``domain`` of
     its training traces (:class:`~signatelec.estimation.domain.Domain`: level range, in-domain
-    score)."""
+    score) and, when trained on condition labels, the ``condition`` model beside it."""
 
     estimator: LoadStateEstimator
     features: list[str]
     info: dict
     domain: Domain | None = None
+    #: The bearing's condition (:class:`~signatelec.estimation.condition.ConditionModel`), or
+    #: None for a model trained on a table without condition labels.
+    condition: object | None = None
 
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])

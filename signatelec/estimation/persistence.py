@@ -32,15 +32,16 @@ import numpy as np
 import sklearn
 
 from signatelec._version import __version__
+from signatelec.estimation.condition_features import CONDITION_FEATURE_SET_VERSION
 from signatelec.estimation.features import FEATURE_SET_VERSION
 from signatelec.estimation.models import LoadStateModel
-from signatelec.estimation.training import DEFAULT_TABLE, train_default_model
+from signatelec.estimation.training import CONDITION_TABLE, DEFAULT_TABLE, train_default_model
 from signatelec.io import cache_dir, write_bytes_atomic
 
 MODEL_FORMAT = "signatelec-load-state-model"
 #: 2: the header carries ``body_bytes`` and ``sha256``; 3: the model carries its training
-#: domain (level range, in-domain score).
-MODEL_FORMAT_VERSION = 3
+#: domain (level range, in-domain score); 4: and the condition model beside the load state.
+MODEL_FORMAT_VERSION = 4
 #: Longest header line read (the header is ~1 kB).
 MAX_HEADER_BYTES = 1 << 20
 RETRAIN = "retrain it with `signatelec train DATASET --out MODEL`"
@@ -63,6 +64,7 @@ def model_header(info: dict | None = None) -> dict:
         "format_version": MODEL_FORMAT_VERSION,
         "signatelec": __version__,
         "feature_set": FEATURE_SET_VERSION,
+        "condition_feature_set": CONDITION_FEATURE_SET_VERSION,
         "scikit_learn": sklearn.__version__,
         "numpy": np.__version__,
     }
@@ -122,7 +124,16 @@ def check_compatible(header: dict, path: str | Path) -> None:
             path,
             f"model format {header.get('format_version')} (signatelec "
             f"{header.get('signatelec')}); this signatelec {__version__} reads format "
-            f"{MODEL_FORMAT_VERSION} (a model that carries its training domain)",
+            f"{MODEL_FORMAT_VERSION} (a model that carries its training domain and the "
+            "condition model)",
+            RETRAIN,
+        )
+    if header.get("condition_feature_set") != CONDITION_FEATURE_SET_VERSION:
+        raise ModelError(
+            path,
+            f"trained on condition feature set {header.get('condition_feature_set')} "
+            f"(signatelec {header.get('signatelec')}); this signatelec {__version__} computes "
+            f"condition feature set {CONDITION_FEATURE_SET_VERSION}",
             RETRAIN,
         )
     if header.get("feature_set") != FEATURE_SET_VERSION:
@@ -177,8 +188,11 @@ def load_model(path: str | Path) -> LoadStateModel:
 
 def default_model_path(table: Path = DEFAULT_TABLE) -> Path:
     """The cache entry of the default model: one per release, feature set, model format,
-    scikit-learn and shipped table."""
-    digest = hashlib.sha256(table.read_bytes()).hexdigest()[:10]
+    scikit-learn and shipped tables (load state and condition)."""
+    digest = hashlib.sha256(table.read_bytes())
+    if CONDITION_TABLE.is_file():
+        digest.update(CONDITION_TABLE.read_bytes())
+    digest = digest.hexdigest()[:10]
     name = (
         f"load_state-{__version__}-fs{FEATURE_SET_VERSION}-m{MODEL_FORMAT_VERSION}-"
         f"sklearn{sklearn.__version__}-{digest}.model"

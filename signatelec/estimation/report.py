@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from signatelec.estimation.diagnose import condition_line
 from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
 from signatelec.estimation.models import DEFAULT_COVERAGE
 from signatelec.io import write_bytes_atomic
@@ -51,6 +52,9 @@ def format_estimate(result: dict) -> str:
         )
         sure = "" if result.get("regime_confident", True) else ", uncertain"
         lines.append(f"  regime = {result['regime']}  ({probs}{sure})")
+    line = condition_line(result)
+    if line is not None:
+        lines.append(line)
     if "in_domain_score" in result:
         lines.append(
             f"  in-domain score = {result['in_domain_score']:.2g}  (warning below {WARN_SCORE:g}, "

@@ -19,6 +19,17 @@ import pandas as pd
 import sklearn
 
 from signatelec._version import __version__
+from signatelec.estimation.condition import (
+    CONDITION_LABELS,
+    CONDITION_TARGET,
+    SEVERITY_TARGET,
+    ConditionEstimator,
+    ConditionModel,
+)
+from signatelec.estimation.condition_features import (
+    condition_feature_names,
+    condition_features,
+)
 from signatelec.estimation.domain import Domain, domain_features
 from signatelec.estimation.features import trace_feature_names, trace_features
 from signatelec.estimation.models import (
@@ -65,10 +76,28 @@ MODEL_FEATURES = (
     "ripple_kurtosis",
     "ripple_asymmetry",
 )
+#: The trace features the condition model reads beside every condition feature: the speed
+#: and the ball-pass ripple's size and shape (an outer-race spall adds to them) and the noise.
+CONDITION_TRACE_FEATURES = (
+    "omega_rad_s",
+    "h1_rel",
+    "h2_rel",
+    "h3_rel",
+    "h4_rel",
+    "noise_rms_rel",
+    "ripple_crest",
+    "ripple_kurtosis",
+)
+#: Condition features not scored by the condition model's domain: they grow with the trace's
+#: length by design (a steady line's height over the floor grows as sqrt(T)).
+CONDITION_LENGTH_DEPENDENT = ("cage_revolutions",)
 #: Shipped training table of the default model (features + labels): :func:`shipped_table`.
 DEFAULT_TABLE = Path(__file__).parent / "data" / "load_state_features.parquet"
+#: Shipped training table of the default condition model (features + condition labels).
+CONDITION_TABLE = Path(__file__).parent / "data" / "condition_features.parquet"
 #: Where the default model says it was trained.
 DEFAULT_SOURCE = f"signatelec/estimation/data/{DEFAULT_TABLE.name}"
+CONDITION_SOURCE = f"signatelec/estimation/data/{CONDITION_TABLE.name}"
 #: The shipped table holds, per training run, one window of this length (the acceptance
 #: condition's) and one window of another length drawn with :data:`SHIPPED_SEED`.
 SHIPPED_LENGTH_S = 0.05
@@ -89,6 +118,57 @@ SHIPPED_COLUMNS = (
 def model_features() -> list[str]:
     """The features the estimator reads, in order (:data:`MODEL_FEATURES`)."""
     return list(MODEL_FEATURES)
+
+
+def condition_model_features() -> list[str]:
+    """The features the condition estimator reads, in order."""
+    return list(CONDITION_TRACE_FEATURES) + condition_feature_names()
+
+
+def condition_domain_features(features) -> list[str]:
+    """The condition features the in-domain score reads: not the speed (checked apart), nor
+    those that grow with the length (the cage revolutions, each line's height over its floor)."""
+    skip = (*CONDITION_LENGTH_DEPENDENT, "omega_rad_s")
+    return [f for f in features if f not in skip and not f.endswith("_snr")]
+
+
+def train_condition(
+    table: pd.DataFrame,
+    *,
+    estimator: ConditionEstimator | None = None,
+    source: str = "",
+) -> ConditionModel:
+    """Fit a :class:`ConditionEstimator` on a feature table with a ``condition`` column (and
+    ``spall_length_m``), grouped by ``run_id`` (or ``trace_id``)."""
+    features = condition_model_features()
+    missing = [c for c in features if c not in table.columns]
+    if missing:
+        raise ValueError(
+            f"feature table lacks {len(missing)} condition features, e.g. {missing[:3]}"
+        )
+    y = table[[c for c in (CONDITION_TARGET, SEVERITY_TARGET) if c in table.columns]].copy()
+    y[CONDITION_TARGET] = y[CONDITION_TARGET].astype(str).to_numpy(dtype=object)
+    group_col = "run_id" if "run_id" in table.columns else "trace_id"
+    groups = table[group_col].to_numpy() if group_col in table.columns else None
+    est = estimator or ConditionEstimator()
+    t0 = time.perf_counter()
+    est.fit(table[features], y, groups=groups)
+    counts = y[CONDITION_TARGET].value_counts()
+    info = {
+        "trained_on": source,
+        "n_rows": int(len(table)),
+        "n_runs": int(len(np.unique(groups))) if groups is not None else int(len(table)),
+        "classes": {str(k): int(v) for k, v in sorted(counts.items())},
+        "coverage": est.coverage,
+        "fit_s": round(time.perf_counter() - t0, 2),
+        "ranges": {
+            c: [float(table[c].min()), float(table[c].max())]
+            for c in (SEVERITY_TARGET, "omega_rad_s", "cage_revolutions")
+            if c in table.columns and table[c].notna().any()
+        },
+    }
+    domain = Domain.fit(table, condition_domain_features(features))
+    return ConditionModel(estimator=est, features=features, info=info, domain=domain)
 
 
 def labels_of(table: pd.DataFrame) -> pd.DataFrame:
@@ -139,7 +219,12 @@ def train_model(
         },
     }
     domain = Domain.fit(table, domain_features(features))
-    return LoadStateModel(estimator=est, features=features, info=info, domain=domain)
+    condition = None
+    if CONDITION_TARGET in table.columns:
+        condition = train_condition(table, source=source)
+    return LoadStateModel(
+        estimator=est, features=features, info=info, domain=domain, condition=condition
+    )
 
 
 # --- the default model ------------------------------------------------------------------------
@@ -167,10 +252,15 @@ def shipped_table(windows: pd.DataFrame) -> pd.DataFrame:
 
 def train_default_model(table: pd.DataFrame | None = None) -> LoadStateModel:
     """The default model: the default :class:`LoadStateEstimator` on the shipped table
-    (:data:`DEFAULT_TABLE`, or ``table``, e.g. a part of it or a fresh :func:`shipped_table`)."""
+    (:data:`DEFAULT_TABLE`, or ``table``, e.g. a part of it or a fresh :func:`shipped_table`),
+    with the default :class:`ConditionEstimator` on :data:`CONDITION_TABLE` beside it (unless
+    ``table`` holds condition labels itself)."""
     if table is None:
         table = pd.read_parquet(DEFAULT_TABLE)
-    return train_model(table, estimator=LoadStateEstimator(), source=DEFAULT_SOURCE)
+    model = train_model(table, estimator=LoadStateEstimator(), source=DEFAULT_SOURCE)
+    if model.condition is None and CONDITION_TABLE.is_file():
+        model.condition = train_condition(pd.read_parquet(CONDITION_TABLE), source=CONDITION_SOURCE)
+    return model
 
 
 # --- feature tables -----------------------------------------------------------------------------
@@ -187,19 +277,48 @@ def features_frame(
     return pd.DataFrame(rows, columns=trace_feature_names(n_harmonics))
 
 
+def condition_frame(traces, sample_rates_hz, omegas_rad_s, bearing=None) -> pd.DataFrame:
+    """Condition features of many traces of one bearing (any lengths), one row each."""
+    rows = [
+        condition_features(r, fs, om, bearing=bearing)
+        for r, fs, om in zip(traces, sample_rates_hz, omegas_rad_s, strict=True)
+    ]
+    return pd.DataFrame(rows, columns=condition_feature_names())
+
+
+def _dataset_bearing(path: Path):
+    """The bearing of a dataset directory's base scene (None: the seed's, or a table)."""
+    import json
+
+    from signatelec.config.scene import Scene
+    from signatelec.data.store import SPEC_FILE
+
+    spec_file = Path(path) / SPEC_FILE
+    if not spec_file.is_file():
+        return None
+    scene = json.loads(spec_file.read_text()).get("scene", {})
+    return Scene.from_dict({"bearing": scene.get("bearing", {})}).bearing
+
+
 def screened_traces(table: pd.DataFrame) -> tuple[list[np.ndarray], list[int], list[str]]:
     """The traces of a dataset table through the sanity layer
     (:func:`signatelec.measurement.sanity.screen_trace`): the (trimmed) traces kept, their row
     numbers, and one line per trace refused (a ball-pass line away from the labelled speed, a
-    constant trace, a level that is not steady: labels that do not fit the trace)."""
+    constant trace, a level that is not steady: labels that do not fit the trace). A trace
+    labelled with a condition may show that condition's own line instead of the ripple."""
     kept, rows, refused = [], [], []
+    conditions = table[CONDITION_TARGET].to_numpy() if CONDITION_TARGET in table else None
     for i, (r, fs, om) in enumerate(
         zip(table["resistance_ohm"], table["sample_rate_hz"], table["omega_rad_s"], strict=True)
     ):
         name = f"trace {table['trace_id'].iloc[i]}" if "trace_id" in table else f"row {i}"
+        label = conditions[i] if conditions is not None else None
         try:
             trace = prepare_trace(np.arange(len(r)) / fs, r, om, source=name)
-            kept.append(screen_trace(trace, om).trace.resistance_ohm)
+            screened = screen_trace(trace, om, defect_lines=label is not None)
+            if screened.defect_line is not None and screened.defect_line[0] != label:
+                raise TraceError(f"{name}: {screened.ripple.problem()}")
+            kept.append(screened.trace.resistance_ohm)
             rows.append(i)
         except TraceError as exc:
             refused.append(str(exc))
@@ -236,10 +355,16 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
     else:
         traces, rows, refused = [np.asarray(x) for x in table[column]], list(range(len(table))), []
     table = table.iloc[rows].reset_index(drop=True)
-    feats = features_frame(
-        traces, table["sample_rate_hz"].to_numpy(), table["omega_rad_s"].to_numpy()
-    )
-    keep = [c for c in ("trace_id", *TARGETS, CLASS_TARGET, "noise_fraction") if c in table]
-    out = pd.concat([table[keep].reset_index(drop=True), feats], axis=1)
+    rates, omegas = table["sample_rate_hz"].to_numpy(), table["omega_rad_s"].to_numpy()
+    parts = [features_frame(traces, rates, omegas)]
+    if CONDITION_TARGET in table:
+        bearing = _dataset_bearing(path)
+        parts.append(condition_frame(traces, rates, omegas, bearing))
+    keep = [
+        c
+        for c in ("trace_id", *TARGETS, CLASS_TARGET, "noise_fraction", *CONDITION_LABELS)
+        if c in table
+    ]
+    out = pd.concat([table[keep].reset_index(drop=True), *parts], axis=1)
     out.attrs["refused"] = refused
     return out

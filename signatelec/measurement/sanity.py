@@ -24,8 +24,12 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
    significance, near the frequency the speed predicts. A line elsewhere (a wrong ``--omega``)
    and a constant trace are refused here; a trace without any line is passed on with the
    finding, for the model's domain to judge (:mod:`signatelec.estimation.estimate`): a running
-   bearing whose load-zone edge sits on a zero of the ripple's first harmonic shows no line at
+   bearing whose load zone's edge sits on a zero of the ripple's first harmonic shows no line at
    0.2 % noise over 50 ms in 17 % of held-out windows, so that alone cannot refuse a trace.
+   A spall on the inner race or a ball, or an unbalance, puts its own line in the trace
+   (BPFI, 2 BSF and their sidebands, the shaft's harmonics), which may outgrow the ripple: when
+   the caller has a condition model, a line on one of those is named, not refused, and the
+   caller refuses it unless the condition model calls that condition confidently.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ import numpy as np
 
 from signatelec.measurement.ripple import Ripple, find_ripple
 from signatelec.measurement.traces import MIN_BALL_PASSES, Trace, TraceError
-from signatelec.physics.kinematics import expected_ball_pass_hz
+from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
 #: A block mean this many block-noise sigmas off the steady level departs from it...
 STEP_SIGMAS = 10.0
@@ -50,14 +54,56 @@ UNIT_FACTORS = {1e3: "mOhm", 1e-3: "kOhm", 1e6: "uOhm", 1e-6: "MOhm"}
 _MAD_TO_SIGMA = 1.4826
 
 
+#: Half-width of the match of a line to a defect's line, relative (the DEM's cage slips by
+#: -0.3 to +0.1 %, a ball's spin more), widened by two frequency bins 2 / T of the trace.
+DEFECT_LINE_REL = 0.01
+
+
 @dataclass(frozen=True)
 class Screening:
     """A trace that passed the sanity layer: the trace to estimate from (maybe trimmed), the
-    ripple found in it and the notes to print (one line each)."""
+    ripple found in it and the notes to print (one line each). ``defect_line``: when the
+    strongest line is not the ball-pass ripple but lies on a defect's line (and the caller
+    allowed it), (the condition it would be, the line's name); the caller must confirm that
+    condition or refuse with ``ripple.problem()``."""
 
     trace: Trace
     ripple: Ripple
     notes: tuple[str, ...] = ()
+    defect_line: tuple[str, str] | None = None
+
+
+def defect_lines_hz(omega_rad_s: float) -> dict[str, tuple[str, float]]:
+    """The lines a defect or an unbalance puts in the resistance spectrum, by name: (the
+    condition, Hz): the shaft harmonics (unbalance), BPFI's harmonics and its shaft sidebands
+    (inner race), 2 BSF's harmonics, its cage sidebands and the cage harmonics (ball);
+    Randall and Antoni (2011, eqs 1-4)."""
+    f = characteristic_frequencies_hz(omega_rad_s)
+    lines: dict[str, tuple[str, float]] = {}
+    for k in range(1, 9):
+        lines[f"{k} f_s"] = ("unbalance", k * f["shaft"])
+    for k in range(1, 5):
+        lines[f"{k} BPFI"] = ("inner", k * f["bpfi"])
+        lines[f"{k} x 2 BSF"] = ("ball", k * f["ball_defect"])
+        lines[f"{k} FTF"] = ("ball", k * f["ftf"])
+    for j in (-2, -1, 1, 2):
+        lines[f"BPFI {j:+d} f_s"] = ("inner", f["bpfi"] + j * f["shaft"])
+    for j in (-3, -2, -1, 1, 2, 3):
+        lines[f"2 BSF {j:+d} FTF"] = ("ball", f["ball_defect"] + j * f["ftf"])
+    return lines
+
+
+def defect_line_of(
+    frequency_hz: float, omega_rad_s: float, duration_s: float
+) -> tuple[str, str] | None:
+    """(condition, line name) of the defect line nearest ``frequency_hz`` within
+    :data:`DEFECT_LINE_REL` (+ 2 / T), or None."""
+    best = None
+    for name, (condition, f) in defect_lines_hz(omega_rad_s).items():
+        off = abs(frequency_hz - f)
+        if off <= DEFECT_LINE_REL * f + 2.0 / duration_s and (best is None or off < best[0]):
+            best = (off, condition, name)
+    return None if best is None else (best[1], best[2])
 
 
 def trim_transient(trace: Trace, omega_rad_s: float) -> Trace:
@@ -136,10 +182,17 @@ def check_level(level_ohm: float, range_ohm: tuple[float, float], where: str) ->
 
 
 def screen_trace(
-    trace: Trace, omega_rad_s: float, level_range_ohm: tuple[float, float] | None = None
+    trace: Trace,
+    omega_rad_s: float,
+    level_range_ohm: tuple[float, float] | None = None,
+    *,
+    defect_lines: bool = False,
 ) -> Screening:
     """The sanity layer (module docstring): trimmed trace, ripple and notes, or TraceError.
-    ``level_range_ohm``: the model's trained level range, checked after the trimming."""
+    ``level_range_ohm``: the model's trained level range, checked after the trimming. With
+    ``defect_lines``, a line away from the ball-pass frequency that lies on a defect's line
+    (:func:`defect_line_of`) is not refused here: the screening names it for the caller to
+    confirm (a condition model) or refuse."""
     trace = trim_transient(trace, omega_rad_s)
     notes = []
     if level_range_ohm is not None:
@@ -148,6 +201,10 @@ def screen_trace(
         if note:
             notes.append(note)
     ripple = find_ripple(trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s)
+    if ripple.status == "elsewhere" and defect_lines:
+        line = defect_line_of(ripple.frequency_hz, omega_rad_s, trace.duration_s)
+        if line is not None:
+            return Screening(trace=trace, ripple=ripple, notes=tuple(notes), defect_line=line)
     if ripple.status in ("elsewhere", "constant"):
         raise TraceError(f"{trace.source}: {ripple.problem()}")
     if ripple.status == "harmonic":

@@ -97,6 +97,25 @@ def characteristic_orders(bearing: Bearing | None = None, contact_angle_rad: flo
     }
 
 
+def characteristic_frequencies_hz(
+    omega_rad_s: float, bearing: Bearing | None = None, contact_angle_rad: float = 0.0
+) -> dict[str, float]:
+    """The lines a defect or a rotating load puts in the signal at shaft speed ``omega_rad_s``
+    (the measured speed), Hz: ``shaft`` (f_s: unbalance), ``ftf`` (cage), ``bpfo`` (outer-race
+    defect), ``bpfi`` (inner-race defect), ``bsf`` (ball spin) and ``ball_defect`` = 2 BSF (a
+    spall on a ball strikes both races once per spin revolution)."""
+    b = bearing or _default_bearing()
+    bsf = ball_spin_frequency_hz(omega_rad_s, b, contact_angle_rad)
+    return {
+        "shaft": shaft_frequency_hz(omega_rad_s),
+        "ftf": cage_frequency_hz(omega_rad_s, b, contact_angle_rad),
+        "bpfo": ball_pass_frequency_outer_hz(omega_rad_s, b, contact_angle_rad),
+        "bpfi": ball_pass_frequency_inner_hz(omega_rad_s, b, contact_angle_rad),
+        "bsf": bsf,
+        "ball_defect": 2.0 * bsf,
+    }
+
+
 def expected_ball_pass_hz(omega_rad_s: float, bearing: Bearing | None = None) -> float:
     """Kinematic ball-pass frequency of ``bearing`` (default: the seed's 6208), Hz.
 

@@ -1,0 +1,201 @@
+"""The bearing's condition from its resistance trace: healthy, outer, inner, ball or unbalance,
+with calibrated probabilities, and the length of a spall with an interval.
+
+:class:`ConditionEstimator` follows scikit-learn's contract like the load-state estimators of
+:mod:`signatelec.estimation.models` (and passes ``parametrize_with_checks``): a
+:class:`~signatelec.estimation.models.RegimeClassifier` over the conditions (gradient boosting,
+probabilities temperature-scaled out of fold, runs kept whole: Guo et al. 2017), and an
+:class:`~signatelec.estimation.models.IntervalRegressor` of log spall length fitted on the rows
+with a spall (conformalised quantile regression: Romano, Patterson, Candes 2019). A spall's
+signature grows with its length relative to the Hertz contact (a ball only loses its contact
+over a spall longer than the contact, Sawalhi and Randall 2008), so the length is learnt on a
+log scale.
+
+:class:`ConditionModel` is a fitted estimator with the features it reads
+(:mod:`signatelec.estimation.condition_features`), what it was trained on, and the domain of its
+training traces (:class:`~signatelec.estimation.domain.Domain`); a load-state model file carries
+one (:class:`~signatelec.estimation.models.LoadStateModel`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import (
+    check_consistent_length,
+    check_is_fitted,
+    column_or_1d,
+    validate_data,
+)
+
+from signatelec.config.constraints import CONDITIONS as CONDITION_NAMES
+from signatelec.estimation.domain import Domain
+from signatelec.estimation.models import (
+    DEFAULT_COVERAGE,
+    IntervalRegressor,
+    RegimeClassifier,
+    _Boosting,
+)
+
+#: The conditions, in report order (the dataset's labels).
+CONDITIONS = CONDITION_NAMES
+#: Conditions that are a spall, whose length is estimated.
+SPALLS = ("outer", "inner", "ball")
+CONDITION_TARGET = "condition"
+SEVERITY_TARGET = "spall_length_m"
+#: The condition labels of a dataset's traces (signatelec.data.design.condition_labels).
+CONDITION_LABELS = (
+    CONDITION_TARGET,
+    SEVERITY_TARGET,
+    "spall_depth_m",
+    "spall_angle_rad",
+    "unbalance_force_n",
+)
+#: Fewest spalled rows the length model is fitted on.
+MIN_SPALL_ROWS = 10
+#: Share of healthy training traces (out of fold) the condition may call anything but healthy:
+#: the call is healthy unless the probability of healthy falls below the threshold that keeps
+#: this false-alarm rate (a Neyman-Pearson detector on the calibrated probability), so that
+#: spalls too small to leave a signature do not make healthy bearings look defective.
+FALSE_ALARM = 0.005
+HEALTHY = "healthy"
+
+
+def _condition_targets(y) -> tuple[np.ndarray, np.ndarray | None]:
+    """(condition labels, spall lengths or None) of ``y``: a DataFrame with ``condition`` (and
+    ``spall_length_m``), or the labels alone."""
+    if y is None:
+        raise ValueError("ConditionEstimator requires y to be passed, but the target y is None")
+    if isinstance(y, pd.DataFrame):
+        if CONDITION_TARGET not in y.columns:
+            raise ValueError(f"y lacks the column {CONDITION_TARGET!r}")
+        labels = y[CONDITION_TARGET].astype(str).to_numpy(dtype=object)
+        length = None
+        if SEVERITY_TARGET in y.columns:
+            length = y[SEVERITY_TARGET].to_numpy(dtype=np.float64)
+        return labels, length
+    return column_or_1d(y, warn=True), None
+
+
+@dataclass(eq=False, repr=False, kw_only=True)
+class ConditionEstimator(ClassifierMixin, _Boosting, BaseEstimator):
+    """The condition with calibrated probabilities, and the spall length with an interval.
+
+    ``fit(X, y, groups)``: ``y`` a DataFrame with ``condition`` (any labels; those of
+    :data:`CONDITIONS` in the shipped model) and optionally ``spall_length_m`` (read on the rows
+    whose condition is in :data:`SPALLS`), or the labels alone; ``groups`` the simulation run
+    of each row. ``predict`` gives the condition, ``predict_proba`` its probabilities (columns
+    ``classes_``), ``predict_frame`` adds ``condition_probability_<class>`` and
+    ``spall_length_m`` with ``_low`` and ``_high`` (interval of nominal ``coverage``; NaN on
+    rows whose condition is not a spall). The condition called is healthy while its probability
+    is at least ``healthy_threshold_`` (set on the out-of-fold probabilities of the healthy
+    training rows for a false-alarm rate :data:`FALSE_ALARM`), else the likeliest other one.
+    """
+
+    coverage: float = DEFAULT_COVERAGE
+
+    def fit(self, X, y=None, groups=None):
+        labels, length = _condition_targets(y)
+        X, labels = validate_data(self, X, labels, dtype=np.float64)
+        check_classification_targets(labels)
+        if groups is not None:
+            check_consistent_length(X, groups)
+        params = self._boosting_params()
+        self.classifier_ = RegimeClassifier(**params).fit(X, labels, groups=groups)
+        self.classes_ = self.classifier_.classes_
+        self.n_iter_ = self.classifier_.n_iter_
+        self.healthy_threshold_ = _healthy_threshold(self.classifier_, labels)
+        self.severity_ = None
+        if length is not None:
+            spall = np.isin(labels.astype(str), SPALLS) & np.isfinite(length) & (length > 0)
+            if spall.sum() >= MIN_SPALL_ROWS:
+                g = None if groups is None else np.asarray(groups)[spall]
+                self.severity_ = IntervalRegressor(coverage=self.coverage, **params).fit(
+                    X[spall], np.log(length[spall]), groups=g
+                )
+        return self
+
+    def predict_proba(self, X) -> np.ndarray:
+        check_is_fitted(self, "classifier_")
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        return self.classifier_._proba(X)
+
+    def _call(self, proba: np.ndarray) -> np.ndarray:
+        """The condition called from calibrated probabilities: healthy while its probability
+        is at least ``healthy_threshold_``, else the likeliest other condition."""
+        best = np.argmax(proba, axis=1)
+        if self.healthy_threshold_ is not None:
+            h = int(np.flatnonzero(self.classes_.astype(str) == HEALTHY)[0])
+            others = proba.copy()
+            others[:, h] = -1.0
+            healthy = proba[:, h] >= self.healthy_threshold_
+            best = np.where(healthy, h, np.argmax(others, axis=1))
+        return self.classes_[best]
+
+    def predict(self, X) -> np.ndarray:
+        return self._call(self.predict_proba(X))
+
+    def _predict_columns(self, X: np.ndarray) -> dict[str, np.ndarray]:
+        """The columns of :meth:`predict_frame` for validated rows."""
+        proba = self.classifier_._proba(X)
+        best = self._call(proba)
+        out: dict[str, np.ndarray] = {CONDITION_TARGET: best}
+        for j, cls in enumerate(self.classes_):
+            out[f"{CONDITION_TARGET}_probability_{cls}"] = proba[:, j]
+        nan = np.full(X.shape[0], np.nan)
+        mid, lo, hi = nan, nan, nan
+        if self.severity_ is not None:
+            m, band = self.severity_._median_and_interval(X)
+            spall = np.isin(np.asarray(best).astype(str), SPALLS)
+            mid = np.where(spall, np.exp(m), np.nan)
+            lo = np.where(spall, np.exp(band[:, 0]), np.nan)
+            hi = np.where(spall, np.exp(band[:, 1]), np.nan)
+        out[SEVERITY_TARGET] = mid
+        out[f"{SEVERITY_TARGET}_low"] = lo
+        out[f"{SEVERITY_TARGET}_high"] = hi
+        return out
+
+    def predict_frame(self, X) -> pd.DataFrame:
+        """Condition, its probabilities and the spall length with its interval, per row."""
+        check_is_fitted(self, "classifier_")
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        return pd.DataFrame(self._predict_columns(X))
+
+
+def _healthy_threshold(classifier: RegimeClassifier, labels: np.ndarray) -> float | None:
+    """The probability of healthy below which :data:`FALSE_ALARM` of the healthy training rows
+    fall, out of fold (None without healthy rows or out-of-fold predictions: plain argmax)."""
+    classes = classifier.classes_.astype(str)
+    oof = getattr(classifier, "oof_proba_", None)
+    if HEALTHY not in classes or oof is None or classes.size < 2:
+        return None
+    h = int(np.flatnonzero(classes == HEALTHY)[0])
+    rows = (np.asarray(labels).astype(str) == HEALTHY) & ~np.isnan(oof).any(axis=1)
+    if rows.sum() < 10:
+        return None
+    return float(np.quantile(oof[rows, h], FALSE_ALARM))
+
+
+@dataclass
+class ConditionModel:
+    """A fitted :class:`ConditionEstimator` with the condition features it reads, in order,
+    ``info`` on its training (source, rows, runs, classes, ranges) and the ``domain`` of its
+    training traces (in-domain score of the condition features)."""
+
+    estimator: ConditionEstimator
+    features: list[str]
+    info: dict
+    domain: Domain
+
+    def predict_one(self, features: dict[str, float]) -> dict:
+        """Condition, probabilities and spall length for one trace's features (by name)."""
+        x = np.array([[features[name] for name in self.features]], dtype=np.float64)
+        if not np.all(np.isfinite(x)):
+            bad = [n for n, v in zip(self.features, x[0], strict=True) if not np.isfinite(v)]
+            raise ValueError(f"condition features not finite: {', '.join(bad)}")
+        cols = self.estimator._predict_columns(x)
+        return {k: (v[0].item() if hasattr(v[0], "item") else v[0]) for k, v in cols.items()}

@@ -1,0 +1,120 @@
+"""The bearing's condition of one screened trace, beside its load state.
+
+:func:`assess_condition` asks a :class:`~signatelec.estimation.condition.ConditionModel` about a
+trace that passed the sanity layer, and gives no confident answer to a trace that cannot carry
+one:
+
+- a trace shorter than :data:`~signatelec.estimation.envelope.MIN_CAGE_REVOLUTIONS` cage
+  revolutions is not assessed (a ball's spall is in the load zone once per cage revolution,
+  and its lines 2 BSF -+ FTF are not resolved over less), nor one shorter (in cage
+  revolutions, less 5 %) than the shortest trace the condition model learnt from (the lines'
+  heights over their floors grow with the length);
+- condition features unlike every training trace (in-domain score below
+  :data:`~signatelec.estimation.domain.REFUSE_SCORE`) are not assessed; below
+  :data:`~signatelec.estimation.domain.WARN_SCORE` the answer carries a warning;
+- a top probability below :data:`CONFIDENT_CONDITION` is reported as uncertain, its rivals
+  named.
+
+The result's keys: ``condition`` (None when not assessed), ``condition_probability_<name>``,
+``condition_confident``, ``spall_length_m`` with ``_low`` and ``_high`` (None unless a spall is
+the answer), ``condition_in_domain_score``; and notes.
+"""
+
+from __future__ import annotations
+
+import math
+
+from signatelec.config.bearing import Bearing
+from signatelec.estimation.condition import CONDITIONS, SEVERITY_TARGET, SPALLS
+from signatelec.estimation.condition_features import condition_features
+from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
+from signatelec.estimation.envelope import MIN_CAGE_REVOLUTIONS, analyse_envelope
+
+#: A condition call at or above this probability is confident.
+CONFIDENT_CONDITION = 0.8
+
+
+def _none(model) -> dict:
+    """The result keys of a trace not assessed."""
+    out = {"condition": None, "condition_confident": False, "condition_in_domain_score": None}
+    for c in getattr(model.estimator, "classes_", CONDITIONS):
+        out[f"condition_probability_{c}"] = None
+    for k in ("", "_low", "_high"):
+        out[f"{SEVERITY_TARGET}{k}"] = None
+    return out
+
+
+def assess_condition(
+    resistance_ohm,
+    sample_rate_hz: float,
+    omega_rad_s: float,
+    trace_features: dict,
+    model,
+    bearing: Bearing | None = None,
+) -> tuple[dict, list[str]]:
+    """(condition keys, notes) of one screened trace (module docstring); ``trace_features``
+    are its load-state features (:func:`~signatelec.estimation.features.trace_features`)."""
+    analysis = analyse_envelope(resistance_ohm, sample_rate_hz, omega_rad_s, bearing=bearing)
+    revolutions = analysis.cage_revolutions
+    # the lines' heights over their floors grow with the trace's length: fewer revolutions than
+    # the shortest training trace is an extrapolation the model was not asked to make
+    trained = model.info.get("ranges", {}).get("cage_revolutions", (0.0, 0.0))[0]
+    least = max(MIN_CAGE_REVOLUTIONS, 0.95 * trained)
+    if revolutions < least:
+        need = least / analysis.lines_hz["ftf"]
+        return _none(model), [
+            f"condition not assessed: the trace spans {revolutions:.1f} cage revolutions, "
+            f"{least:.2g} are needed (at least {need * 1e3:.0f} ms at this speed; the "
+            f"condition model learnt from traces of {trained:.2g} or more)"
+        ]
+    feats = {**trace_features, **condition_features(None, analysis=analysis)}
+    score = model.domain.score(feats)
+    if score < REFUSE_SCORE:
+        return _none(model) | {"condition_in_domain_score": score}, [
+            f"condition not assessed: the trace is unlike every training trace of the condition "
+            f"model (in-domain score {score:.2g}; farthest: "
+            f"{', '.join(model.domain.farthest(feats))})"
+        ]
+    out = model.predict_one(feats)
+    notes = []
+    probs = {c: out[f"condition_probability_{c}"] for c in model.estimator.classes_}
+    best = out["condition"]
+    out["condition_confident"] = bool(probs[best] >= CONFIDENT_CONDITION)
+    out["condition_in_domain_score"] = score
+    if not out["condition_confident"]:
+        likely = [c for c, p in sorted(probs.items(), key=lambda kv: -kv[1]) if p >= 0.1]
+        notes.append(
+            f"condition uncertain: {' or '.join(likely)} (no probability reaches "
+            f"{CONFIDENT_CONDITION:.0%}); a longer or quieter trace is needed to tell"
+        )
+    if score < WARN_SCORE:
+        notes.append(
+            f"warning: condition in-domain score {score:.2g} (below {WARN_SCORE:g}; farthest: "
+            f"{', '.join(model.domain.farthest(feats))}): the condition is an extrapolation"
+        )
+    if best not in SPALLS:
+        for k in ("", "_low", "_high"):
+            out[f"{SEVERITY_TARGET}{k}"] = None
+    else:
+        for k in ("", "_low", "_high"):
+            v = out.get(f"{SEVERITY_TARGET}{k}")
+            out[f"{SEVERITY_TARGET}{k}"] = v if v is not None and math.isfinite(v) else None
+    return out, notes
+
+
+def condition_line(result: dict) -> str | None:
+    """The one line naming the condition and its probability (None without a condition
+    model)."""
+    if "condition" not in result:
+        return None
+    c = result["condition"]
+    if c is None:
+        return "  condition = not assessed (see the notes)"
+    p = result.get(f"condition_probability_{c}")
+    sure = "" if result.get("condition_confident") else ", uncertain"
+    line = f"  condition = {c}  (probability {p:.2f}{sure})"
+    length = result.get(SEVERITY_TARGET)
+    if length is not None:
+        lo, hi = result[f"{SEVERITY_TARGET}_low"], result[f"{SEVERITY_TARGET}_high"]
+        line += f"; spall length {length * 1e3:.2f} mm [{lo * 1e3:.2f}, {hi * 1e3:.2f}]"
+    return line

@@ -1,0 +1,334 @@
+"""The diagnosis study: how well the condition model tells a spall or an unbalance from a healthy
+bearing, on held-out paper-fidelity DEM runs.
+
+:func:`run_study` (``signatelec study diagnosis --out DIR``) runs it:
+
+1. **generate**, for the seed's bearing and the catalogue's 6205: the training runs of
+   ``datasets/diagnosis.toml`` (DEM at the "fast" preset; 0.2 s of steady trace after 30 ms of
+   settling, clean signal at 20 kHz) and :data:`TEST_RUNS` held-out runs per condition of the
+   same design with another seed at the paper's fidelity (velocity Verlet, dt = 1e-7 s, every
+   effect); generation resumes where it stopped;
+2. **features**: every run measured through
+   :class:`~signatelec.measurement.model.MeasurementModel` (training: :data:`TRAIN_DRAWS` draws
+   of white noise 0.05-1 % log-uniform, drift up to 0.1 %; test: the acceptance condition,
+   0.2 % noise over the whole 0.2 s, and the noise scan :data:`NOISE_SCAN`), load-state and
+   condition features of each;
+3. **train** the condition model on every training window (both bearings), predict the test
+   windows; the shipped default load-state model predicts F_r on them;
+4. **evaluate and report** (:mod:`signatelec.studies.diagnosis_report`): the acceptance table
+   (healthy runs flagged, spalls at least the Hertz contact width detected and typed right,
+   F_r MAPE with and without a defect), detection against spall length and against noise,
+   Parquet, Markdown and PNG into the report directory, and the README's figures (a trace and
+   its envelope spectrum per condition).
+
+``ship_to`` writes the default condition model's training table
+(``signatelec/estimation/data/condition_features.parquet``).
+"""
+
+from __future__ import annotations
+
+import time
+import tomllib
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from threadpoolctl import threadpool_limits
+
+from signatelec.config.catalogue import catalogue_bearing
+from signatelec.config.scene import Scene
+from signatelec.data import generate as generate_dataset
+from signatelec.data import spec_from_dict
+from signatelec.estimation.condition_features import condition_features
+from signatelec.estimation.features import trace_features
+from signatelec.measurement.model import MeasurementModel
+from signatelec.studies.load_state import (
+    QUANTISATION_OHM,
+    fixed_draw,
+    load_runs,
+    train_draw,
+)
+from signatelec.studies.load_state_metrics import ACCEPT_NOISE
+
+#: The bearings of the study: the seed's 6208 and a catalogue bearing of another size.
+BEARINGS = ("seed", "6205")
+#: Held-out paper-fidelity runs per condition and bearing.
+TEST_RUNS = {"healthy": 40, "outer": 15, "inner": 15, "ball": 15, "unbalance": 10}
+#: Acceptance windows per test run: the whole 0.2 s measured with independent noise draws
+#: (the runs, not the windows, are independent draws of the load state and the defect).
+ACCEPT_DRAWS = 3
+#: Measured windows per training run, each its own draw of the load-state study's training
+#: measurement (white noise 0.05-1 % log-uniform, drift up to 0.1 %, offset +-20 uOhm).
+TRAIN_DRAWS = 2
+#: The acceptance condition is the load-state study's (ACCEPT_NOISE, ACCEPT_DRIFT: 0.2 % white
+#: noise, 0.05 % drift), here over 0.2 s at 20 kHz.
+NOISE_SCAN = (5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2)
+#: First spawn-key words of the measurement draws (training, acceptance, noise scan).
+TRAIN_KEY, ACCEPT_KEY, SCAN_KEY = 500, 501, 600
+SHIPPED_COLUMNS = ("run_id", "bearing", "noise_fraction", "radial_load_n", "condition")
+#: The training design (a file of the source tree, beside the package).
+DEFAULT_SPEC = Path(__file__).resolve().parents[2] / "datasets" / "diagnosis.toml"
+
+Log = Callable[[str], None]
+
+
+def _quiet(msg: str) -> None:
+    pass
+
+
+def _rng(*key: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(14, spawn_key=tuple(int(k) for k in key)))
+
+
+# --- 1. generate ------------------------------------------------------------------------------
+
+
+def study_spec(spec_path: Path, bearing: str, test: bool, quick: bool):
+    """The dataset spec of a bearing's training runs (``test``: its held-out paper-fidelity
+    runs); ``quick``: 3 training runs (test: 1) per condition, all at the "fast" preset."""
+    data = tomllib.loads(Path(spec_path).read_text())
+    ds = data["dataset"]
+    index = BEARINGS.index(bearing) if bearing in BEARINGS else len(BEARINGS)
+    ds["name"] = f"{ds['name']}_{bearing}" + ("_test" if test else "")
+    ds["seed"] = ds["seed"] + 2 * index + (1 if test else 0)
+    if test and not quick:
+        ds["fidelity"] = "dem"
+    if bearing != "seed":
+        data.setdefault("scene", {})["bearing"] = {"designation": bearing}
+        ratio = (
+            catalogue_bearing(bearing).dynamic_load_rating_n / Scene().bearing.dynamic_load_rating_n
+        )
+    for block in data["design"]:
+        condition = block["factors"]["condition"]["value"]
+        if bearing != "seed" and "unbalance_force_n" in block["factors"]:
+            f = block["factors"]["unbalance_force_n"]
+            f["min"], f["max"] = f["min"] * ratio, f["max"] * ratio
+        if quick:
+            block["n_traces"] = 1 if test else 3
+        elif test:
+            block["n_traces"] = TEST_RUNS[condition]
+    return spec_from_dict(data, str(spec_path))
+
+
+def generate(
+    out: Path, spec_path: Path, quick: bool, workers: int = 0, log: Log = _quiet
+) -> dict[tuple[str, bool], Path]:
+    """Generate (or resume) every bearing's training and test runs: their directories."""
+    dirs = {}
+    for bearing in BEARINGS:
+        for test in (False, True):
+            spec = study_spec(spec_path, bearing, test, quick)
+            d = out / f"runs_{bearing}" / ("test" if test else "train")
+            t0 = time.perf_counter()
+            summary = generate_dataset(spec, d, workers=workers, progress=log is not _quiet)
+            log(
+                f"generate {spec.name}: {summary.generated} new traces, {summary.n_traces} in "
+                f"all, {time.perf_counter() - t0:.0f} s"
+            )
+            dirs[(bearing, test)] = d
+    return dirs
+
+
+# --- 2. features -------------------------------------------------------------------------------
+
+
+#: Run labels carried into the feature rows.
+RUN_LABELS = (
+    "radial_load_n",
+    "epsilon",
+    "clearance_m",
+    "regime",
+    "omega_rad_s",
+    "condition",
+    "spall_length_m",
+    "spall_depth_m",
+    "spall_angle_rad",
+    "unbalance_force_n",
+    "max_ball_load_n",
+)
+
+
+def measured_rows(runs: pd.DataFrame, bearing: str, draws: int, draw, key: int) -> list[dict]:
+    """Each run measured ``draws`` times with ``draw(rng)`` over its whole window: rows of
+    labels, load-state and condition features."""
+    b = Scene().bearing if bearing == "seed" else catalogue_bearing(bearing)
+    meter = MeasurementModel(sample_rate_hz=20000.0, quantisation_ohm=QUANTISATION_OHM)
+    rows = []
+    for run in runs.itertuples(index=False):
+        clean = np.asarray(run.resistance_clean_ohm, dtype=float)
+        fs, omega = float(run.sample_rate_hz), float(run.omega_rad_s)
+        for w in range(draws):
+            rng = _rng(key, BEARINGS.index(bearing), run.trace_id, w)
+            d = draw(rng)
+            r = meter.measure(clean, d, rng)
+            feats = trace_features(r, fs, omega) | condition_features(r, fs, omega, bearing=b)
+            labels = {k: getattr(run, k) for k in RUN_LABELS}
+            rows.append(
+                {
+                    "run_id": f"{bearing}-{run.trace_id}",
+                    "bearing": bearing,
+                    "window": w,
+                    "noise_fraction": d.noise_fraction,
+                    **labels,
+                    **feats,
+                }
+            )
+    return rows
+
+
+def feature_tables(
+    out: Path, spec_path: Path, quick: bool, reuse: bool, workers: int = 0, log: Log = _quiet
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(training, test) rows: read from ``out`` when ``reuse`` and there, else generated,
+    measured and written to ``out``. Test rows carry ``scan_noise`` (the noise they were
+    measured at; the acceptance rows at :data:`ACCEPT_NOISE` have ``acceptance`` True)."""
+    paths = [out / f"features_{n}.parquet" for n in ("train", "test")]
+    if reuse and all(p.is_file() for p in paths):
+        log(f"features: reused {', '.join(p.name for p in paths)}")
+        return pd.read_parquet(paths[0]), pd.read_parquet(paths[1])
+    dirs = generate(out, spec_path, quick, workers, log)
+    t0 = time.perf_counter()
+    train, test = [], []
+    for bearing in BEARINGS:
+        runs = load_runs(dirs[(bearing, False)], log)
+        train += measured_rows(runs, bearing, TRAIN_DRAWS, train_draw, TRAIN_KEY)
+        test_runs = load_runs(dirs[(bearing, True)], log)
+        accept = measured_rows(
+            test_runs, bearing, ACCEPT_DRAWS, fixed_draw(ACCEPT_NOISE), ACCEPT_KEY
+        )
+        test += [{**row, "scan_noise": ACCEPT_NOISE, "acceptance": True} for row in accept]
+        for i, noise in enumerate(NOISE_SCAN):
+            if noise == ACCEPT_NOISE:
+                continue
+            rows = measured_rows(test_runs, bearing, 1, fixed_draw(noise), SCAN_KEY + i)
+            test += [{**row, "scan_noise": noise, "acceptance": False} for row in rows]
+    tables = (pd.DataFrame(train), pd.DataFrame(test))
+    for table, path in zip(tables, paths, strict=True):
+        table.to_parquet(path, index=False)
+    log(
+        f"features: {len(tables[0])} training, {len(tables[1])} test windows in "
+        f"{time.perf_counter() - t0:.0f} s"
+    )
+    return tables
+
+
+# --- 3. train and predict -----------------------------------------------------------------------
+
+
+def hertz_contact_width_m(bearing, ball_load_n: float, race: str) -> float:
+    """Width of the Hertz contact of a ball carrying ``ball_load_n`` on ``race`` along the rolling
+    direction, 2 a (Hamrock-Brewe ellipse of seed eqs 17-18, a along the in-plane radius r1 of
+    seed eqs 12-13), m. A spall shorter than it is bridged by the contact."""
+    from signatelec.config.bearing import raceway_radii
+    from signatelec.physics.conductance import contact_ellipse
+
+    _, _, radius_eq_m, alpha = raceway_radii(bearing)[race]
+    modulus = bearing.ball_material.plane_strain_modulus_pa
+    a_m, _, _ = contact_ellipse(ball_load_n, radius_eq_m, alpha, modulus)
+    return 2.0 * float(a_m)
+
+
+def contact_widths_m(table: pd.DataFrame) -> np.ndarray:
+    """The Hertz contact width each row's spall is compared with: on its race at the run's
+    largest ball load (the DEM's mean); for a ball's spall the wider of its two contacts."""
+    out = np.full(len(table), np.nan)
+    bearings = {b: Scene().bearing if b == "seed" else catalogue_bearing(b) for b in BEARINGS}
+    for i, row in enumerate(table[["bearing", "condition", "max_ball_load_n"]].itertuples()):
+        b, q = bearings[row.bearing], float(row.max_ball_load_n)
+        if row.condition in ("outer", "inner"):
+            out[i] = hertz_contact_width_m(b, q, row.condition)
+        elif row.condition == "ball":
+            out[i] = max(hertz_contact_width_m(b, q, r) for r in ("inner", "outer"))
+    return out
+
+
+def predict_rows(model, table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` with the condition model's predictions alongside (``pred_`` columns)."""
+    pred = model.estimator.predict_frame(table[model.features]).add_prefix("pred_")
+    return pd.concat([table.reset_index(drop=True), pred], axis=1)
+
+
+def load_predictions(table: pd.DataFrame) -> np.ndarray:
+    """F_r of each seed-bearing row by the default load-state model (NaN for other bearings:
+    the shipped load-state model knows the seed's bearing only)."""
+    from signatelec.estimation.persistence import default_model
+
+    model = default_model()
+    out = np.full(len(table), np.nan)
+    seed = (table["bearing"] == "seed").to_numpy()
+    if seed.any():
+        out[seed] = model.predict_frame(table[seed])["radial_load_n"].to_numpy()
+    return out
+
+
+def shipped_condition_table(train: pd.DataFrame) -> pd.DataFrame:
+    """The default condition model's training table: the first measured window of every
+    training run, its labels and the condition model's features, numbers as float32."""
+    from signatelec.estimation.training import condition_model_features
+
+    rows = train[train["window"] == 0]
+    keep = [*SHIPPED_COLUMNS, "spall_length_m", "level_mean_ohm"]
+    feats = [c for c in condition_model_features() if c not in keep]
+    out = rows[keep + feats].reset_index(drop=True).copy()
+    numbers = [c for c in out.columns if c not in ("run_id", "bearing", "condition")]
+    out[numbers] = out[numbers].astype(np.float32)
+    for c in ("bearing", "condition"):
+        out[c] = out[c].astype("category")
+    return out
+
+
+def run_study(
+    out: Path,
+    report_dir: Path,
+    spec_path: Path,
+    *,
+    quick: bool = False,
+    reuse: bool = True,
+    workers: int = 0,
+    ship_to: Path | None = None,
+    log: Log = _quiet,
+) -> dict:
+    """The whole study (module docstring); returns the acceptance figures."""
+    from signatelec.estimation.condition import ConditionEstimator
+    from signatelec.estimation.training import train_condition
+    from signatelec.io import write_bytes_atomic
+    from signatelec.studies.diagnosis_report import report
+
+    t_start = time.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
+    train, test = feature_tables(out, spec_path, quick, reuse, workers, log)
+    t0 = time.process_time()
+    shipped = shipped_condition_table(train)
+    # one thread: OpenMP threads spinning on a shared, busy machine only burn its CPU
+    with threadpool_limits(1):
+        model = train_condition(
+            shipped, estimator=ConditionEstimator(), source=f"{spec_path.name} (study)"
+        )
+        fit_cpu_s = time.process_time() - t0
+        log(f"train: {len(shipped)} runs, {fit_cpu_s:.0f} s CPU")
+        pred = predict_rows(model, test)
+        pred["hertz_width_m"] = contact_widths_m(pred)
+        pred["pred_load_radial_load_n"] = load_predictions(pred)
+    pred.to_parquet(out / "predictions_test.parquet", index=False)
+    if ship_to is not None:
+        import io
+
+        buf = io.BytesIO()
+        shipped.to_parquet(buf, index=False)
+        write_bytes_atomic(ship_to, buf.getvalue())
+        log(f"shipped {ship_to} ({ship_to.stat().st_size / 1e3:.0f} kB, {len(shipped)} rows)")
+    figures = report(
+        pred,
+        report_dir,
+        out,
+        info={
+            "train_runs": int(shipped["run_id"].nunique()),
+            "fit_cpu_s": fit_cpu_s,
+            "quick": quick,
+            "elapsed_s": time.perf_counter() - t_start,
+        },
+        model=model,
+    )
+    log(f"report: {report_dir}")
+    return figures
