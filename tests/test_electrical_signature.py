@@ -196,7 +196,7 @@ def test_unloaded_instants_have_infinite_resistance_written_explicitly(run_scene
     no current flows, and Parquet keeps the inf."""
     from signatelec.cli import main
 
-    scene = _short_scene(radial_load_n=0.0, clearance_m=20e-6)
+    scene = _short_scene(radial_load_n=0.0, clearance_m=20e-6, procedure={"spin_up_time_s": 5e-3})
     result = run_scene(scene)
     resistance = result.signals.resistance_ohm.to_numpy()
     assert not np.isnan(resistance).any()
