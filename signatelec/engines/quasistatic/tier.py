@@ -38,8 +38,12 @@ What the tier leaves out (everything dynamic):
   friction plays no part;
 - cage dynamics: the balls stay evenly spaced (the cage balls or the rigid cage are not
   simulated, only their kinematic motion for the kinetic energy; with the cage
-  off, the DEM's balls may bunch and touch, the tier's never do), the tangential component of a
-  ball's weight is ignored;
+  off, the DEM's balls may bunch and touch, the tier's never do); with the cage balls, the
+  chain that carries the tangential part of the balls' weights pushes them outward
+  (:func:`signatelec.physics.quasistatic.cage_chain_force_n`: it matters at zero radial load,
+  where those weights are the load); with the rigid cage, the tangential part of the weights and
+  the cage's own weight are left out (at zero radial load the DEM's resistance is then up to
+  a third below the tier's);
 - the phase of the trace: the DEM's balls slip a little during spin-up, so over long runs its
   ball-pass phase drifts from the kinematic one of the tier.
 
@@ -147,6 +151,7 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingSo
         gravity=e.gravity == "standard",
         rtol=TIER_RTOL,
         unit_xy=unit_xy,
+        cage_chain=e.cage == "balls",
     )
 
 
