@@ -46,14 +46,17 @@ def test_quick_map_runs_and_writes_its_outputs(tmp_path):
     res = CliRunner().invoke(cli, ["study", "operating-map", "--quick", "--out", str(out)])
     assert res.exit_code == 0, res.output
     table = pd.read_parquet(out / "operating_map.parquet")
-    assert len(table) == 3 and (out / "operating_map.png").stat().st_size > 0
+    # three cells for each cage model: the seed's cage balls and the rigid cage
+    assert len(table) == 6 and set(table.cage) == {"balls", "rigid"}
+    assert (out / "operating_map.png").stat().st_size > 0
     assert "# Operating map" in (out / "operating_map.md").read_text()
     assert (table.status != "diverged").all()
     # the energy balance closes (work in = dissipated + elastic + kinetic)
     assert (table.energy_error < 0.01).all()
-    seed = table[table.designation == "seed"].iloc[0]
-    assert seed.status == "ok"
-    assert abs(seed.resistance_error) < 0.01 and abs(seed.load_error) < 0.02
+    # every cell on the quasi-static tier: resistance within 1 %, largest ball load within 2 %
+    assert (table.status == "ok").all(), table[["designation", "cage", "status"]]
+    assert (table.resistance_error.abs() <= RESISTANCE_RTOL).all()
+    assert (table.load_error.abs() <= LOAD_RTOL).all()
     bad = CliRunner().invoke(cli, ["study", "operating-map", "--cage", "x", "--out", str(out)])
     assert bad.exit_code == 2 and "--cage 'x': must be one of" in bad.output
 
@@ -74,6 +77,21 @@ def test_loaded_catalogue_bearings_agree_with_the_quasistatic_tier(cell):
     # 99.5 % of the gap, as the seed's do, it holds at light and heavy load, zero and normal
     # clearance, up to the limiting speed; with 10 % pocket play these cells were 1.1-6.8 % off.
     row = run_cell(cell)
+    assert row["status"] == "ok", row
+    assert abs(row["resistance_error"]) <= RESISTANCE_RTOL
+    assert abs(row["load_error"]) <= LOAD_RTOL
+    assert row["energy_error"] < 0.01
+
+
+@pytest.mark.slow
+def test_zero_load_with_the_cage_balls_agrees_with_the_quasistatic_tier():
+    # F_r = 0: the ring's weight (0.69 N) and the balls' (9 x 0.083 N) are the whole load. Two
+    # things must hold for the DEM to settle on the tier's state: the automatic spin-up lets the
+    # ring's weight bring the balls to rolling (0.4 s here; after the seed's 5 ms the ball set
+    # slides, and this cell was -11 % on resistance, +3.2 % on ball load), and the tier carries
+    # the push of the cage-ball chain that holds the tangential part of the balls' weights
+    # (0.08 N on the bottom ball; without it the steady DEM is 8 % below the tier at 10 rad/s).
+    row = run_cell(Cell("6208", float(speeds_rad_s("6208")[1]), 0.0, "zero"))
     assert row["status"] == "ok", row
     assert abs(row["resistance_error"]) <= RESISTANCE_RTOL
     assert abs(row["load_error"]) <= LOAD_RTOL
