@@ -41,9 +41,9 @@ What the tier leaves out (everything dynamic):
   off, the DEM's balls may bunch and touch, the tier's never do); with the cage balls, the
   chain that carries the tangential part of the balls' weights pushes them outward
   (:func:`signatelec.physics.quasistatic.cage_chain_force_n`: it matters at zero radial load,
-  where those weights are the load); with the rigid cage, the tangential part of the weights and
-  the cage's own weight are left out (at zero radial load the DEM's resistance is then up to
-  a third below the tier's);
+  where those weights are the load); with the rigid cage, the push of its pockets, which carry
+  the tangential part of the weights and the cage's own weight
+  (:func:`signatelec.physics.quasistatic.rigid_cage_force_n`; friction at the races left out);
 - the phase of the trace: the DEM's balls slip a little during spin-up, so over long runs its
   ball-pass phase drifts from the kinematic one of the tier.
 
@@ -151,7 +151,7 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None) -> RingSo
         gravity=e.gravity == "standard",
         rtol=TIER_RTOL,
         unit_xy=unit_xy,
-        cage_chain=e.cage == "balls",
+        cage=e.cage,
     )
 
 
