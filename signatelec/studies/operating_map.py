@@ -15,6 +15,12 @@ balance (``outputs.energy``). A cell records:
 - the steady state against the quasi-static tier on the same recorded instants: mean resistance
   within :data:`RESISTANCE_RTOL`, mean largest ball load within :data:`LOAD_RTOL`.
 
+At zero radial load the ring's and the balls' weights are the whole load: those cells need the
+automatic spin-up's traction rule (:func:`signatelec.physics.stability.traction_spin_up_time_s`:
+seconds at speed, the time the ring's weight takes to bring the balls to rolling) and the tier's
+cage pushes (:func:`signatelec.physics.quasistatic.cage_chain_force_n`,
+:func:`~signatelec.physics.quasistatic.rigid_cage_force_n`); they are the costly cells.
+
 Normal clearance: the middle of the group N radial internal clearance of ISO 5753-1:2009
 (table 1, deep-groove ball bearings) for the bearing's bore, used as the model's clearance
 Delta_r (seed eq. 14). Preload: 5 um, or half the ISO 76 preload limit when that is smaller.
