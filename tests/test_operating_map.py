@@ -12,6 +12,7 @@ from click.testing import CliRunner
 from signatelec.cli import cli
 from signatelec.config.catalogue import CATALOGUE
 from signatelec.studies.operating_map import (
+    CAGES,
     LOAD_FRACTIONS,
     LOAD_RTOL,
     RESISTANCE_RTOL,
@@ -39,7 +40,8 @@ def test_the_grid_spans_each_bearings_rated_speeds():
     assert w[0] == 10.0 and w[-1] == pytest.approx(18000 * np.pi / 30) and len(w) >= 5
     np.testing.assert_allclose(w[1:] / w[:-1], w[1] / w[0], rtol=1e-12)  # geometric
     grid = cells()
-    assert len(grid) == len(CATALOGUE) * len(w) * len(LOAD_FRACTIONS) * 3
+    assert len(grid) == len(CATALOGUE) * len(w) * len(LOAD_FRACTIONS) * 3 * len(CAGES)
+    assert CAGES == ("balls", "rigid")
     assert set(LOAD_FRACTIONS) == {0.0, 0.05, 0.2, 0.5}
 
 
