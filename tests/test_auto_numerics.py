@@ -27,8 +27,10 @@ from signatelec.physics.stability import (
     DT_ACCURACY_S,
     DT_MARGIN,
     SPIN_UP_MIN_S,
+    TRACTION_SHARE,
     chain_contact,
     stability_limit,
+    traction_spin_up_time_s,
 )
 from signatelec.studies.operating_map import limiting_speed_rad_s
 
@@ -214,3 +216,44 @@ def test_the_chosen_spin_up_keeps_every_overlap_well_below_the_abort(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         dem_run.simulate_dem(scene, cure=False)
+
+
+def test_at_zero_load_the_rings_weight_alone_drives_the_balls_at_the_traction_rate():
+    """F_r = 0: only the ring's weight presses the inner contacts, and Coulomb friction (seed
+    eq. 4, mu = 0.15) there is all that drives the ball set. After the seed's 5 ms spin-up the
+    balls slide and their orbit accelerates at the balance of the traction rule,
+    alpha_c = 2 mu sum Q_i / (Z r_p (m_b + I_b/R_b^2) + J_cage / r_p). The rule takes
+    sum Q_i = m_ring g, the least the inner contacts carry (its rate, recovered from its time as
+    pi omega_c / (2 share T), is a lower bound: 64 rad/s^2); at a slow orbit the balls' weights
+    press on the inner race too, so the rate may reach (m_ring + Z m_b) g / (m_ring g) times it.
+    Measured: 111 rad/s^2 over the first 50 ms, falling to 68 as the centrifugal force lifts the
+    upper balls off the inner race (the ball set reaches rolling after 2.1 s)."""
+    bearing = catalogue_bearing("6208")
+    scene = Scene(bearing=bearing).with_overrides(
+        radial_load_n=0.0, omega_rad_s=351.6, spin_up_time_s=5e-3, duration_s=0.05
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sig = simulate(scene).signals
+    late = sig[sig.time_s > 0.015]
+    measured = np.polyfit(late.time_s, late.cage_speed_rad_s, 1)[0]
+    omega_c = bearing.cage_speed_rad_s(351.6)
+    expected = math.pi * omega_c / (2 * TRACTION_SHARE * traction_spin_up_time_s(scene))
+    assert late.cage_speed_rad_s.max() < 0.1 * omega_c  # sliding, far from rolling
+    ratio = 1.0 + bearing.n_balls * bearing.ball_mass_kg / bearing.inner_ring_mass_kg
+    assert expected <= measured <= ratio * expected
+
+
+def test_the_automatic_spin_up_leaves_a_zero_load_ball_set_rolling():
+    """With the traction rule the ball set follows the ring: the steady cage speed is the
+    rolling one (R_inn / (R_inn + R_out) omega) within 1 %, where the seed's 5 ms leaves it at
+    under a tenth of it (previous test)."""
+    bearing = catalogue_bearing("6208")
+    scene = Scene(bearing=bearing).with_overrides(radial_load_n=0.0, omega_rad_s=32.76)
+    assert scene.procedure.spin_up_time_s > 0.1  # the traction rule, not the chain's 5 ms
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sig = simulate(scene.with_overrides(duration_s=scene.setup_time_s + 0.02)).signals
+    steady = sig[sig.phase == "steady"]
+    kinematic = bearing.cage_speed_rad_s(32.76)
+    assert steady.cage_speed_rad_s.mean() == pytest.approx(kinematic, rel=0.01)

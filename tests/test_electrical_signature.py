@@ -196,7 +196,7 @@ def test_unloaded_instants_have_infinite_resistance_written_explicitly(run_scene
     no current flows, and Parquet keeps the inf."""
     from signatelec.cli import main
 
-    scene = _short_scene(radial_load_n=0.0, clearance_m=20e-6)
+    scene = _short_scene(radial_load_n=0.0, clearance_m=20e-6, procedure={"spin_up_time_s": 5e-3})
     result = run_scene(scene)
     resistance = result.signals.resistance_ohm.to_numpy()
     assert not np.isnan(resistance).any()
@@ -212,8 +212,10 @@ def test_unloaded_instants_have_infinite_resistance_written_explicitly(run_scene
     assert not np.any((inner[unloaded] > 0.0) & (outer[unloaded] > 0.0))  # no bridging ball
 
     out = tmp_path / "unloaded"
-    main(["simulate", "--radial-load", "0", "--clearance", "20e-6", "--duration", "0.008",
-          "--quiet", "--out", str(out)])  # fmt: skip
+    spin_up = tmp_path / "spin_up.toml"
+    spin_up.write_text("[procedure]\nspin_up_time_s = 5e-3\n")
+    main(["simulate", "--scene", str(spin_up), "--radial-load", "0", "--clearance", "20e-6",
+          "--duration", "0.008", "--quiet", "--out", str(out)])  # fmt: skip
     written = pq.read_table(out / "signals.parquet").column("resistance_ohm").to_numpy()
     assert not np.isnan(written).any()
     np.testing.assert_array_equal(np.isposinf(written), unloaded)

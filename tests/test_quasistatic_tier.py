@@ -29,6 +29,7 @@ from signatelec.engines.simulate import simulate
 from signatelec.physics.contact import hertz_overlap
 from signatelec.physics.laws import scene_law
 from signatelec.physics.load_distribution import harris_radial_integral
+from signatelec.physics.quasistatic import cage_chain_force_n, rigid_cage_force_n
 from signatelec.physics.stability import stability_limit
 
 SEED = Bearing()
@@ -122,7 +123,8 @@ def test_tier_equilibrium_satisfies_harris_equations(changes):
     - the ring is in equilibrium, sum_k Q_i,k u_k = F (Harris 7.3), F = F_r plus the ring's
       weight with gravity;
     - each ball touching both races balances its body force, Q_o - Q_i = m_b omega_c^2 r_p +
-      m_b g cos psi (Harris 7.2 and chapter 10), and a ball on one race carries its body force;
+      m_b g cos psi (Harris 7.2 and chapter 10) plus the push of the cage (balls or rigid), and
+      a ball on one race carries its body force;
     - the deflections of a ball on both races add up to the approach, d_i + d_o = s . u -
       Delta_r with d = (Q / c)^(1/n) (seed eq. 14 radii, eqs 3 and 8), and a ball without
       inner force does not reach the inner race (approach <= its outer deflection).
@@ -143,6 +145,10 @@ def test_tier_equilibrium_satisfies_harris_equations(changes):
     omega_c = b.cage_speed_rad_s(op.omega_rad_s)
     centrifugal = b.ball_mass_kg * omega_c**2 * b.pitch_radius_m
     weight = b.ball_mass_kg * STANDARD_GRAVITY_M_S2 * np.cos(psi)
+    if e.gravity == "standard" and e.cage == "balls":  # the cage-ball chain carries the
+        weight = weight + cage_chain_force_n(psi, b)  # tangential part of the weights
+    if e.gravity == "standard" and e.cage == "rigid":  # so do the rigid cage's pockets
+        weight = weight + rigid_cage_force_n(psi, b)
     body = (centrifugal if e.centrifugal == "inertial" else 0.0) + (
         weight if e.gravity == "standard" else 0.0
     )

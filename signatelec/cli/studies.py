@@ -46,18 +46,25 @@ def accuracy_cost(out, quick, fresh, quiet):
 
 @study.command("operating-map")
 @click.option("--out", "out", type=str, required=True, help="Output directory.")
-@click.option("--quick", is_flag=True, help="Three cells, two ball passes: a pipeline check.")
+@click.option(
+    "--quick", is_flag=True, help="Three cells per cage model, two ball passes: a pipeline check."
+)
 @click.option(
     "--cage",
     "cages",
     multiple=True,
-    default=("balls",),
+    default=("balls", "rigid"),
     show_default=True,
     help="Cage model(s) to map (repeatable; see the scene's effects.cage).",
 )
 @click.option("--fresh", is_flag=True, help="Ignore finished cells cached in DIR/.cache.")
+@click.option(
+    "--cached-only",
+    is_flag=True,
+    help="Run no cell: write the map from the cells finished in DIR/.cache, the others 'not run'.",
+)
 @click.option("--quiet", is_flag=True, help="No progress or file list.")
-def operating_map(out, quick, cages, fresh, quiet):
+def operating_map(out, quick, cages, fresh, cached_only, quiet):
     """Every catalogue bearing at its rated speeds with the defaults: DIR/operating_map.{parquet,
     md,png}."""
     from signatelec.config.options import OPTION_TABLE
@@ -74,7 +81,12 @@ def operating_map(out, quick, cages, fresh, quiet):
     claim_output(out, "study operating-map", previous=previous, replaced=False)
     try:
         paths = run_study(
-            out, quick=quick, cages=cages, fresh=fresh, log=None if quiet else click.echo
+            out,
+            quick=quick,
+            cages=cages,
+            fresh=fresh,
+            cached_only=cached_only,
+            log=None if quiet else click.echo,
         )
         write_marker(out, "study operating-map")
     except OSError as exc:

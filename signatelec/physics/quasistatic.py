@@ -82,15 +82,23 @@ def raceway_law(bearing: Bearing, law: str = "hertz", linear_stiffness_n_m=None)
 
 
 def ball_body_force_n(
-    ball_angle_rad, bearing: Bearing, omega_rad_s, centrifugal=True, gravity=False
+    ball_angle_rad,
+    bearing: Bearing,
+    omega_rad_s,
+    centrifugal=True,
+    gravity=False,
+    cage="none",
 ):
     r"""Outward radial body force on each ball, N.
 
-    .. math:: b(\psi) = m_b \omega_c^2 r_p + m_b g \cos\psi
+    .. math:: b(\psi) = m_b \omega_c^2 r_p + m_b g \cos\psi \; [+ \text{cage}]
 
     The centrifugal term (Harris 2001, chapter 10) uses the kinematic cage speed
     ``omega_c = bearing.cage_speed_rad_s(omega)`` and the pitch radius; the gravity term is the
-    radial component of the ball weight along ``-y`` (seed section 2.2.2 loads like gravity).
+    radial component of the ball weight along ``-y`` (seed section 2.2.2 loads like gravity);
+    with gravity, ``cage`` (the scene's ``effects.cage``) adds what the cage that carries the
+    tangential part of the weights pushes on the balls: the seed's cage-ball chain
+    (:func:`cage_chain_force_n`) or the rigid cage (:func:`rigid_cage_force_n`).
     """
     psi = np.asarray(ball_angle_rad, dtype=float)
     body = np.zeros(psi.shape)
@@ -99,7 +107,79 @@ def ball_body_force_n(
         body = body + bearing.ball_mass_kg * omega_c**2 * bearing.pitch_radius_m
     if gravity:
         body = body + bearing.ball_mass_kg * STANDARD_GRAVITY_M_S2 * np.cos(psi)
+        if cage == "balls":
+            body = body + cage_chain_force_n(psi, bearing)
+        elif cage == "rigid":
+            body = body + rigid_cage_force_n(psi, bearing)
     return body
+
+
+def rigid_cage_force_n(ball_angle_rad, bearing: Bearing) -> np.ndarray:
+    r"""Outward radial push, N, of the rigid cage's pockets on each ball under gravity.
+
+    The rigid cage (one ball-guided ring with a spherical pocket of radial clearance
+    ``c = pocket_clearance_m / 2`` per ball) sinks by Delta under gravity. Each ball, held on its
+    radius by the races, slides along its tangent under ``-m_b g sin psi_k`` until the pocket
+    wall holds it (overlaps of microns against c = 0.127 mm: rigid contacts). The pocket centre
+    then lies ``a_k = Delta cos psi_k`` off the ball's radius, so the wall there is inclined and
+    the frictionless reaction that holds the tangential weight also pushes the ball outward by
+
+    .. math:: f_k = m_b g |\sin\psi_k| \, a_k / \sqrt{c^2 - a_k^2}
+
+    (in above the axis, out below). The cage is in equilibrium when those pushes hold it and its
+    weight: ``sum_k f_k cos psi_k = (m_c + Z m_b / 2) g`` (the tangential weights, Z m_b g / 2
+    down in all, come back through the ring), which fixes Delta (bisection; the left side grows
+    with Delta without bound as the most vertical pocket closes its clearance). Measured in the
+    DEM at F_r = 0 (6208, 10 rad/s): the cage sinks 125.9 um for c = 127 um. Friction at the
+    races, which may carry part of the weights, is left out.
+    """
+    psi = np.asarray(ball_angle_rad, dtype=float)
+    g = STANDARD_GRAVITY_M_S2
+    c = 0.5 * bearing.pocket_clearance_m
+    cos, sin = np.cos(psi), np.abs(np.sin(psi))
+    weight = bearing.ball_mass_kg * g
+    needed = (bearing.rigid_cage_mass_kg + 0.5 * psi.shape[-1] * bearing.ball_mass_kg) * g
+
+    def pushes(delta):
+        a = delta[..., None] * cos
+        return weight * sin * a / np.sqrt(np.maximum(c * c - a * a, 1e-300))
+
+    low = np.zeros(psi.shape[:-1])
+    high = c / np.abs(cos).max(axis=-1)
+    for _ in range(60):  # bisection to ~1e-18 of c: far below any contact overlap
+        mid = 0.5 * (low + high)
+        short = (pushes(mid) * cos).sum(axis=-1) < needed
+        low, high = np.where(short, mid, low), np.where(short, high, mid)
+    return pushes(0.5 * (low + high))
+
+
+def cage_chain_force_n(ball_angle_rad, bearing: Bearing) -> np.ndarray:
+    r"""Outward radial push, N, of the seed's cage-ball chain on each ball under gravity.
+
+    Balls and cage balls alternate on the pitch circle (seed section 2.1: each cage ball between
+    two frictionless boundaries, so it carries no radial force to the ball set). The tangential
+    part of each ball's weight, ``-m_b g sin psi_k``, slides it toward the bottom; the chain
+    carries it: the compression of the gap after ball k is
+    ``N_k = N_{k-1} - m_b g sin psi_k / cos(pi / 2Z)`` (balls in angle order), the
+    constant fixed by the chain being slack where it is least compressed (it cannot pull).
+    The ball/cage-ball contact lies along the chord to the cage ball, pi/(2Z) off the tangent,
+    so each gap pushes the ball outward by ``N sin(pi / 2Z)``. Light loads only: at zero radial
+    load the pushes (0.08 N on the bottom ball of a 6208) are as large as the ball weights
+    themselves; the friction of the races, which may carry part of the weights, is left out
+    (rolling balls: the drive torque the DEM measures there is ~0).
+    """
+    psi = np.asarray(ball_angle_rad, dtype=float)
+    z = psi.shape[-1]
+    half = math.pi / (2 * z)
+    weight = bearing.ball_mass_kg * STANDARD_GRAVITY_M_S2
+    order = np.argsort(np.remainder(psi, 2.0 * math.pi), axis=-1)
+    ordered = np.take_along_axis(psi, order, axis=-1)
+    gaps = np.cumsum(-weight * np.sin(ordered) / math.cos(half), axis=-1)  # gap after ball k
+    gaps = gaps - gaps.min(axis=-1, keepdims=True)
+    push = (gaps + np.roll(gaps, 1, axis=-1)) * math.sin(half)
+    out = np.empty_like(push)
+    np.put_along_axis(out, order, push, axis=-1)
+    return out
 
 
 def ring_load_xy_n(bearing: Bearing, radial_load_n, gravity=False) -> np.ndarray:
@@ -235,11 +315,13 @@ def ring_equilibrium(
     initial_shift_xy_m=None,
     unit_xy=None,
     load_xy_n=None,
+    cage="none",
 ) -> RingSolution:
     """Checked inputs to :func:`signatelec.physics.ring_equilibrium.solve_ring`, checked output.
 
     ``raceway`` is ``((c_inner, c_outer), exponent)`` (:func:`raceway_law`, or a scene's law);
-    the other parameters are those of :func:`solve_equilibrium_over_time`; ``rtol`` the residual
+    the other parameters are those of :func:`solve_equilibrium_over_time`, and ``cage`` that of
+    :func:`ball_body_force_n`; ``rtol`` the residual
     asked, relative to the load carried; ``unit_xy`` the ``(sin psi, -cos psi)`` arrays when the
     caller has them; ``clearance_m`` may be a (T, Z) array (each ball's at each instant) and
     ``load_xy_n`` a (T, 2) array of the load at each instant, replacing the static F_r's (a
@@ -255,7 +337,7 @@ def ring_equilibrium(
     load_xy = ring_load_xy_n(bearing, radial_load_n, gravity)
     if load_xy_n is not None:
         load_xy = np.broadcast_to(np.asarray(load_xy_n, dtype=float), (psi.shape[0], 2))
-    body = ball_body_force_n(psi, bearing, omega_rad_s, centrifugal, gravity)
+    body = ball_body_force_n(psi, bearing, omega_rad_s, centrifugal, gravity, cage)
     ux, uy = (np.sin(psi), -np.cos(psi)) if unit_xy is None else unit_xy
     start = (0.0, 0.0) if initial_shift_xy_m is None else initial_shift_xy_m
     solution = solve_ring(ux, uy, body, clearance_m, load_xy, *raceway, rtol=rtol, start_xy_m=start)

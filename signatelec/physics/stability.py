@@ -33,7 +33,11 @@ Settings a scene may leave to ``"auto"`` (:func:`auto_spin_up_time_s`, :func:`au
   with 5 ms, 1000 rad/s fails with 5 and passes with 10 ms, 2000 rad/s fails with 20 and passes
   with 40 ms, 3000 rad/s fails with 40 and passes with 80 ms, a 247 um clearance at 500 rad/s
   fails with 5 and passes with 10 ms); the rule keeps a factor of about 2 over those points and
-  the operating map (``signatelec study operating-map``) checks it over the catalogue;
+  the operating map (``signatelec study operating-map``) checks it over the catalogue. It is
+  also never shorter than the ball set can follow by rolling (:func:`traction_spin_up_time_s`):
+  friction at the inner contacts is all that drives the balls, so a light load (at F_r = 0 the
+  ring's weight alone) asks for seconds at high speed (6208 at 351.6 rad/s: 4.3 s), where a
+  shorter one leaves the balls sliding far below their rolling speed for as long;
 - the time step: :data:`DT_MARGIN` times the stability limit, never above :data:`DT_ACCURACY_S`.
 """
 
@@ -49,6 +53,7 @@ from signatelec.config.bearing import (
     CAGE_WALL,
     INNER,
     OUTER,
+    STANDARD_GRAVITY_M_S2,
     contact_properties,
 )
 from signatelec.physics.contact import mindlin_coefficient
@@ -193,8 +198,11 @@ CHAIN_OVERLAP_FRACTION = 0.02
 SPIN_UP_SPEED_M_S = 5.0
 #: Shortest automatic spin-up: the seed's (section 4), s.
 SPIN_UP_MIN_S = 5.0e-3
-#: Longest automatic spin-up (hundreds of balls, the many-ball limit, would ask for minutes), s.
-SPIN_UP_MAX_S = 1.0
+#: Longest automatic spin-up, s: a weightless ring at zero load (no traction at all) would ask
+#: for ever; 60 s is 6e8 steps at 1e-7 s, within the 1e9 a run may take.
+SPIN_UP_MAX_S = 60.0
+#: Share of the traction the spin-up asks of the ball/inner-race friction at its peak.
+TRACTION_SHARE = 0.8
 #: Clearance, as a share of the ball radius, that doubles the automatic spin-up.
 CLEARANCE_SCALE_FRACTION = 0.02
 #: Share of the stability limit an automatic time step uses.
@@ -230,10 +238,50 @@ def auto_spin_up_time_s(scene) -> float:
     per_time = math.ceil(b.n_balls / 2) * inertia_mass * b.pitch_radius_m * omega_c * math.pi / 2
     speed = max(1.0, b.pitch_radius_m * omega_c / SPIN_UP_SPEED_M_S)
     rattle = 1.0 + max(op.clearance_m, 0.0) / (CLEARANCE_SCALE_FRACTION * b.ball_radius_m)
-    t_spin = min(SPIN_UP_MAX_S, max(SPIN_UP_MIN_S, per_time / allowed_n * speed * rattle))
+    t_spin = max(per_time / allowed_n * speed * rattle, traction_spin_up_time_s(scene))
+    t_spin = min(SPIN_UP_MAX_S, max(SPIN_UP_MIN_S, t_spin))
     if t_spin == SPIN_UP_MIN_S:
         return t_spin
     return math.ceil(t_spin * 1e4 - 1e-9) * 1e-4
+
+
+def traction_spin_up_time_s(scene) -> float:
+    """Shortest sinusoidal spin-up the ball set can follow by rolling, s.
+
+    The inner ring drives the balls by friction at the inner contacts only. A ball rolling on the
+    outer race whose orbit accelerates at alpha_c needs ``f_i = r_p alpha_c (m_b + I_b/R_b^2)/2``
+    there (orbit: ``f_i + f_o = m_b r_p alpha_c + P``; spin: ``f_o - f_i = -I_b r_p alpha_c /
+    R_b^2``), and a cage of inertia J_c about the axis takes ``sum P = J_c alpha_c / r_p`` from
+    the balls. Friction passes at most ``mu sum Q_i`` and ``sum Q_i >= |sum Q_i u_i|``: the
+    radial load plus the ring's weight, or the preload force of every ball. The sinusoidal
+    spin-up asks ``alpha_c = pi omega_c / (2 T)`` at its peak; at
+    :data:`TRACTION_SHARE` of the friction available it is
+    ``T = pi omega_c (Z r_p m_eff + J_c / r_p) / (4 share mu F_N)``. A shorter spin-up leaves the
+    ball set sliding: at zero load the ring's weight alone drives it (measured, 6208 at
+    351.6 rad/s after the seed's 5 ms: cage at 1.7 rad/s, then +68 rad/s^2, the rate this
+    balance gives, to the kinematic 138.6 rad/s after 2.1 s; seed section 2.1: Coulomb friction
+    on ball/raceway contacts only, so nothing else drives it). 0 without friction.
+    """
+    b, op, e = scene.bearing, scene.operating, scene.effects
+    omega_c = abs(b.cage_speed_rad_s(op.omega_rad_s))
+    if e.friction != "coulomb" or omega_c == 0.0:
+        return 0.0
+    m_eff = b.ball_mass_kg + b.ball_inertia_kg_m2 / b.ball_radius_m**2
+    if e.cage == "balls":
+        cage_inertia = b.n_balls * b.cage_ball_mass_kg * b.pitch_radius_m**2
+    elif e.cage == "rigid":
+        cage_inertia = b.rigid_cage_inertia_kg_m2
+    else:
+        cage_inertia = 0.0
+    weight = b.inner_ring_mass_kg * STANDARD_GRAVITY_M_S2 if e.gravity == "standard" else 0.0
+    coef, n = scene_law(scene)
+    preload = b.n_balls * preload_ball_force_n(coef, n, op.clearance_m)
+    normal = max(op.radial_load_n + weight, preload)
+    inertia = b.n_balls * b.pitch_radius_m * m_eff + cage_inertia / b.pitch_radius_m
+    traction = TRACTION_SHARE * b.friction_coefficient * normal
+    if traction <= 0.0:
+        return math.inf
+    return math.pi * omega_c * inertia / (4.0 * traction)
 
 
 def auto_dt_s(scene) -> float:

@@ -14,7 +14,10 @@ seed effect) is compared with each **setting** of the ladder:
   stability limit, made heavier (a numerical device: they carry no current and ~1 N), so dt can
   grow to the steel balls' limit;
 - the DEM with the rigid cage (``effects.cage = "rigid"``, a 7 g PA66-GF25 ring) instead of the
-  cage balls: another model, not a numerical device, whose limit is the steel balls' own;
+  cage balls: another model, not a numerical device, whose limit is the steel balls' own. Its
+  rungs are compared with a reference of their own model (``reference rigid cage dt=1e-8``),
+  whose own row gives the difference between the two cage models (against the cage balls'
+  reference);
 - the fidelity presets of :mod:`signatelec.engines.fidelity`.
 
 Each run covers the set-up phases, ``SETTLE_S`` for the spin-up transient, then
@@ -118,6 +121,18 @@ def _law(name: str) -> tuple[tuple[str, str], ...]:
 _RIGID = (("cage", "rigid"),)
 
 REFERENCE = dem("reference dt=1e-8", dt_s=REFERENCE_DT_S)
+#: The rigid cage's own reference: its rungs are compared with it (another model, not a numerical
+#: approximation of the cage balls); its row is compared with :data:`REFERENCE`.
+REFERENCE_RIGID = dem("reference rigid cage dt=1e-8", dt_s=REFERENCE_DT_S, effects=_RIGID)
+REFERENCES = (REFERENCE, REFERENCE_RIGID)
+
+
+def reference_for(setting: Setting, scene: Scene) -> Setting:
+    """The reference a setting is compared with: that of its cage model."""
+    if setting is REFERENCE_RIGID or scene.effects.cage != "rigid":
+        return REFERENCE
+    return REFERENCE_RIGID
+
 
 SETTINGS: tuple[Setting, ...] = (
     Setting("quasistatic", "quasistatic"),
@@ -154,13 +169,18 @@ SETTINGS: tuple[Setting, ...] = (
     ),
     dem("dem cage mass x80 euler dt=1e-6", dt_s=1e-6, cage_mass_scale=80.0, integrator="euler"),
     dem("dem rigid cage dt=1e-7", dt_s=1e-7, effects=_RIGID),
-    dem("dem rigid cage dt=0.5 limit", dt_limit_fraction=0.5, effects=_RIGID),
-    dem("dem rigid cage dt=0.9 limit", dt_limit_fraction=0.9, effects=_RIGID),
-    dem(
-        "dem rigid cage euler dt=0.9 limit",
-        dt_limit_fraction=0.9,
-        integrator="euler",
-        effects=_RIGID,
+    *(
+        dem(f"dem rigid cage dt={fraction} limit", dt_limit_fraction=fraction, effects=_RIGID)
+        for fraction in (0.5, 0.75, 0.9)
+    ),
+    *(
+        dem(
+            f"dem rigid cage euler dt={fraction} limit",
+            dt_limit_fraction=fraction,
+            integrator="euler",
+            effects=_RIGID,
+        )
+        for fraction in (0.5, 0.75, 0.9)
     ),
 )
 
@@ -308,11 +328,12 @@ class _Cache:
                 stale.unlink()
             key_path.write_text(key)
 
-    def _reference_path(self, scene_name: str) -> Path:
-        return self.dir / f"reference_{''.join(c if c.isalnum() else '_' for c in scene_name)}.npz"
+    def _reference_path(self, scene_name: str, reference: str) -> Path:
+        name = "".join(c if c.isalnum() else "_" for c in f"{reference} {scene_name}")
+        return self.dir / f"{name}.npz"
 
-    def reference(self, scene_name: str) -> Trace | None:
-        path = self._reference_path(scene_name)
+    def reference(self, scene_name: str, reference: str = REFERENCE.name) -> Trace | None:
+        path = self._reference_path(scene_name, reference)
         if not path.exists():
             return None
         with np.load(path) as data:
@@ -323,8 +344,8 @@ class _Cache:
                 float(data["ball_pass_frequency_hz"]),
             )
 
-    def save_reference(self, scene_name: str, trace: Trace) -> None:
-        path = self._reference_path(scene_name)
+    def save_reference(self, scene_name: str, reference: str, trace: Trace) -> None:
+        path = self._reference_path(scene_name, reference)
         buffer = io.BytesIO()
         np.savez(buffer, **asdict(trace))
         write_bytes_atomic(path, buffer.getvalue())
@@ -343,7 +364,13 @@ def run_cases(
     from signatelec.engines.results import DivergenceError
 
     cache = _Cache(out, config.key(), fresh)
-    cases = [(s, st) for s in config.scenes for st in (REFERENCE, *config.settings)]
+    first = base_scene(config.scenes[0], config)
+    references = tuple(
+        ref
+        for ref in REFERENCES
+        if any(reference_for(st, st.scene(first)) is ref for st in (REFERENCE, *config.settings))
+    )
+    cases = [(s, st) for s in config.scenes for st in (*references, *config.settings)]
     bar = None
     if progress:
         from tqdm import tqdm
@@ -354,8 +381,8 @@ def run_cases(
             bar.set_postfix_str(f"{study_scene.name}: {setting.name}"[:60])
         cached = cache.rows.get((study_scene.name, setting.name))
         done = cached is not None and cached.get("definition") == setting.definition()
-        if setting is REFERENCE:
-            done = done and cache.reference(study_scene.name) is not None
+        if setting in REFERENCES:
+            done = done and cache.reference(study_scene.name, setting.name) is not None
         if not done:
             t0 = time.perf_counter()
             base = base_scene(study_scene, config)
@@ -373,9 +400,10 @@ def run_cases(
                 row["status"] = f"failed: {exc}"
             else:
                 trace = Trace.of(result, window)
-                if setting is REFERENCE:
-                    cache.save_reference(study_scene.name, trace)
-                reference = cache.reference(study_scene.name)
+                if setting in REFERENCES:
+                    cache.save_reference(study_scene.name, setting.name, trace)
+                row["reference"] = reference_for(setting, scene).name
+                reference = cache.reference(study_scene.name, row["reference"])
                 if reference is None:
                     row["status"] = "failed: no reference run"
                 else:

@@ -43,8 +43,12 @@ What the tier leaves out (everything dynamic):
   friction plays no part;
 - cage dynamics: the balls stay evenly spaced (the cage balls or the rigid cage are not
   simulated, only their kinematic motion for the kinetic energy; with the cage
-  off, the DEM's balls may bunch and touch, the tier's never do), the tangential component of a
-  ball's weight is ignored;
+  off, the DEM's balls may bunch and touch, the tier's never do); with the cage balls, the
+  chain that carries the tangential part of the balls' weights pushes them outward
+  (:func:`signatelec.physics.quasistatic.cage_chain_force_n`: it matters at zero radial load,
+  where those weights are the load); with the rigid cage, the push of its pockets, which carry
+  the tangential part of the weights and the cage's own weight
+  (:func:`signatelec.physics.quasistatic.rigid_cage_force_n`; friction at the races left out);
 - the phase of the trace: the DEM's balls slip a little during spin-up, so over long runs its
   ball-pass phase drifts from the kinematic one of the tier.
 
@@ -190,6 +194,7 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None, time_s=No
         rtol=TIER_RTOL,
         unit_xy=unit_xy,
         load_xy_n=load,
+        cage=e.cage,
     )
 
 
