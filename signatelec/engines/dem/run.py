@@ -303,6 +303,17 @@ def _add_electrical(result: SimulationResult, fcon: np.ndarray, pos: np.ndarray)
         result.balls[name] = getattr(el, name).ravel()
 
 
+def checked_limit(scene: Scene):
+    """The stability limit of ``scene``; :class:`SceneError` when its dt is above it."""
+    limit = stability_limit(scene)
+    if scene.numerics.dt_s > limit.dt_limit_s:
+        raise SceneError(
+            f"numerics.dt_s = {scene.numerics.dt_s:g}: above the {limit.describe()}; "
+            f"use dt_s <= {limit.dt_limit_s:.3g} s"
+        )
+    return limit
+
+
 def simulate_dem(
     scene: Scene | None = None, *, progress: bool = False, cure: bool = True
 ) -> SimulationResult:
@@ -313,12 +324,7 @@ def simulate_dem(
     names the setting that cures it, measured by short probe runs (:func:`measured_cure`).
     """
     scene = scene or Scene()
-    limit = stability_limit(scene)
-    if scene.numerics.dt_s > limit.dt_limit_s:
-        raise SceneError(
-            f"numerics.dt_s = {scene.numerics.dt_s:g}: above the {limit.describe()}; "
-            f"use dt_s <= {limit.dt_limit_s:.3g} s"
-        )
+    limit = checked_limit(scene)
     spec = KernelSpec.from_scene(scene)
     kern = get_kernel(spec)
     p = kernel_parameters(scene)
@@ -358,6 +364,14 @@ def simulate_dem(
         remedy = measured_cure(scene, st.status) if cure else None
         raise DivergenceError(_divergence_message(scene, st.status, remedy))
 
+    return dem_result(scene, rec, rec_index, limit, spec.key, compile_s, run_s, run_cpu_s)
+
+
+def dem_result(scene, rec, rec_index, limit, kernel, compile_s, run_s, run_cpu_s):
+    """The result of a DEM run of ``scene`` that recorded ``rec_index`` instants of ``rec`` (a
+    :class:`~.records.Recording`): its tables, timings and, with the electrical output, the
+    electrical columns."""
+    n_steps = scene.n_steps
     balls, signals = _raw_tables(scene, rec_index, rec)
     timings = {
         "compile_s": compile_s,
@@ -366,7 +380,7 @@ def simulate_dem(
         "us_per_step": 1e6 * run_s / max(n_steps, 1),
         "run_cpu_s": run_cpu_s,
         "cpu_us_per_step": 1e6 * run_cpu_s / max(n_steps, 1),
-        "kernel": spec.key,
+        "kernel": kernel,
         "dt_s": scene.numerics.dt_s,
         "spin_up_time_s": scene.procedure.spin_up_time_s,
         "duration_s": scene.numerics.duration_s,
