@@ -1,29 +1,17 @@
 """Ensemble DEM kernel: LANES scenes of one KernelSpec advanced in lockstep, one source
-specialised per KernelSpec, the number of balls and the lane width.
+specialised (:mod:`.build`) per KernelSpec (the flags of :mod:`.kernel`), BALLS and LANES.
 
-:mod:`signatelec.engines.dem.build` writes this file with its spec block (below) set from a
-:class:`~signatelec.engines.dem.spec.KernelSpec` (the same flags as :mod:`.kernel`) plus
-``BALLS`` and ``LANES``, and compiles that copy with numba (``cache=True``). Every body, contact
-and accumulator of the single-scene kernel is a row of LANES consecutive float64 values of one
-flat work array ``W``, value ``W[row * LANES + lane]``; every parameter of the record
-:data:`~.records.PARAMS` a row of ``W`` too (:data:`.records.PARAM_ROWS`, before the state). The
-lane loop is the innermost loop of every contact: its trip count and every row offset are
-compile-time constants, one array is written, so LLVM vectorises it; a contact that opens or
-closes is a mask (a select), not a branch. The laws are those of :mod:`.kernel`: the contact
-functions of :mod:`signatelec.physics.contact` and :mod:`.primitives` (the warm-started roots,
-the damping, the Coulomb limit) in the same order, so each lane reproduces the single-scene
-kernel (tests/test_ensemble.py). The schedule, with its cosines, runs per lane from ``PR``, the
-lanes' parameter records.
-
-Rows: positions, velocities, accelerations, new accelerations of the 2 Z + 1 bodies [body, xy]
-as in :mod:`.records`; the ball spins, spin accelerations (new, old); the tangential springs,
-warm roots and contact forces [ball, slot]; the schedule; the energy; the status; the scratch
-accumulators of the inner ring, the drive torque and the energy terms.
+Every body, contact, parameter (:data:`.records.PARAM_ROWS`) and accumulator of the single-scene
+kernel is a row of LANES float64 values of one flat array ``W``: ``W[row * LANES + lane]``. The
+lane loop is the innermost loop of every contact, its trip count and row offsets compile-time
+constants, one array written: LLVM vectorises it (8 lanes of AVX-512). A contact that opens or
+closes is a select, not a branch. The physics is that of :mod:`.kernel`, in the same order and
+with the same functions (physics.contact, primitives: warm roots, damping, Coulomb limit); the
+schedule, with its cosines, runs per lane from ``PR``, the lanes' parameter records.
 """
 
 # fmt: off
 # --- kernel spec: build.specialise rewrites this block from a KernelSpec ----------------------
-# (here: the flags this source reads, at the seed scene's values, and the batch's shape)
 CAGE_BALLS = True
 CAGE_RIGID = False
 CAGE_NONE = False
@@ -67,6 +55,7 @@ from signatelec.engines.dem.records import (
     R_INNER,
     R_OUTER,
     R_SIDE0,
+    R_SIDE1,
     R_WALL,
 )
 from signatelec.physics import contact as _contact
@@ -96,15 +85,9 @@ ENERGY_ROW = SCHED + 4  # 4, as State.energy
 STATUS = ENERGY_ROW + 4  # 4, as State.status (as floats)
 FLAG = STATUS + 4  # 3: this step's overlap flag (code, body, kind)
 RATE = FLAG + 3  # the outer race radius' rate
-RING_FX = RATE + 1  # accumulators of one force evaluation
-RING_FY = RING_FX + 1
-DRIVE = RING_FY + 1
-LOSS = DRIVE + 1
-WORK = LOSS + 1
-ELASTIC = WORK + 1
-CAGE_FX = ELASTIC + 1  # one cage ball's force
-CAGE_FY = CAGE_FX + 1
-ROWS = CAGE_FY + 1
+# accumulators of one force evaluation
+RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC = range(RATE + 1, RATE + 7)
+ROWS = ELASTIC + 1
 #: Rows of one recorded instant: time, positions and velocities, spins, contact forces,
 #: schedule, energy (kinetic in the last).
 REC_TIME = 0
@@ -115,22 +98,19 @@ REC_SCHED = REC_FCON + 6 * BALLS
 REC_ENERGY = REC_SCHED + 4
 REC_ROWS = REC_ENERGY + 4
 # --- rows of the parameters in W (records.PARAM_ROWS) ---------------------------------------
-P_DT = PARAM_ROWS["dt_s"]
-P_RB = PARAM_ROWS["ball_radius_m"]
-P_RC = PARAM_ROWS["cage_ball_radius_m"]
-P_RIN = PARAM_ROWS["inner_race_radius_m"]
-P_RP = PARAM_ROWS["pitch_radius_m"]
-P_MB = PARAM_ROWS["ball_mass_kg"]
-P_IB = PARAM_ROWS["ball_inertia_kg_m2"]
-P_MC = PARAM_ROWS["cage_ball_mass_kg"]
-P_MI = PARAM_ROWS["inner_ring_mass_kg"]
-P_G = PARAM_ROWS["gravity_m_s2"]
-P_MU = PARAM_ROWS["friction_coefficient"]
-P_LIMIT = PARAM_ROWS["max_overlap_fraction"]
-P_NCOEF = PARAM_ROWS["normal_coefficient"]
-P_NDAMP = PARAM_ROWS["normal_damping_factor"]
-P_TSTIFF = PARAM_ROWS["tangential_stiffness_factor"]
-P_TDAMP = PARAM_ROWS["tangential_damping_factor"]
+P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT = (
+    PARAM_ROWS[name]
+    for name in (
+        "dt_s", "ball_radius_m", "cage_ball_radius_m", "inner_race_radius_m", "pitch_radius_m",
+        "ball_mass_kg", "ball_inertia_kg_m2", "cage_ball_mass_kg", "inner_ring_mass_kg",
+        "gravity_m_s2", "friction_coefficient", "max_overlap_fraction",
+    )
+)  # fmt: skip
+P_NCOEF = PARAM_ROWS["normal_coefficient"]  # 6 rows each, by contact type; then 2 by raceway
+P_NDAMP, P_TSTIFF, P_TDAMP = (
+    PARAM_ROWS[f"{name}_factor"]
+    for name in ("normal_damping", "tangential_stiffness", "tangential_damping")
+)
 #: The forces of step n are evaluated at (n + 1) dt (Verlet) or n dt (symplectic Euler).
 T_SHIFT = 1 if INTEGRATOR_VERLET else 0
 
@@ -254,8 +234,9 @@ def forces(step, PR, W):
         for j in range(BALLS):
             _cage_ball_lanes(j, W)
     if CAGE_NONE:
-        for k in range(BALLS):
-            _ball_ball_lanes(k, W)
+        for k in range(BALLS):  # ball k + 1 on ball k
+            m = k + 1 if k + 1 < BALLS else 0
+            _pair_lanes(m, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W)
     for k in range(BALLS):
         for lane in range(LANES):
             inv_mb = 1.0 / W[P_MB * LANES + lane]
@@ -433,93 +414,53 @@ def _cage_ball_lanes(j, W):
         if ENERGY:
             W[LOSS * LANES + lane] += dloss
             W[ELASTIC * LANES + lane] += de
-        W[CAGE_FX * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
-        W[CAGE_FY * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
-    # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1)
-    _cage_side_lanes(j, 0, j, W)
-    _cage_side_lanes(j, 1, j + 1 if j + 1 < BALLS else 0, W)
+        W[(ACC_NEW + 2 * c) * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
+        W[(ACC_NEW + 2 * c + 1) * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
+    # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
+    root = ROOTS + 20 * j
+    _pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W)
+    _pair_lanes(c, j + 1 if j + 1 < BALLS else 0, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W)
     for lane in range(LANES):
         inv_mc = 1.0 / W[P_MC * LANES + lane]
-        W[(ACC_NEW + 2 * c) * LANES + lane] = W[CAGE_FX * LANES + lane] * inv_mc
-        W[(ACC_NEW + 2 * c + 1) * LANES + lane] = W[CAGE_FY * LANES + lane] * inv_mc
+        W[(ACC_NEW + 2 * c) * LANES + lane] *= inv_mc
+        W[(ACC_NEW + 2 * c + 1) * LANES + lane] *= inv_mc
 
 
 @inline
-def _cage_side_lanes(j, side, k, W):
-    """Cage ball j against ball k on its ``side`` (0: ball j, 1: ball j + 1), every lane."""
-    c = BALLS + j
-    slot = R_SIDE0 + 2 * side
-    at_root = (ROOTS + 20 * j + slot) * LANES
+def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W):
+    """Body a (cage ball or ball, radius at ``radius_row``) on ball b, frictionless, every
+    lane: the force on a added to its row of ACC_NEW, its opposite to b's (a cage ball on a
+    ball, or ball k + 1 on ball k without a cage)."""
     for lane in range(LANES):
-        rc = W[P_RC * LANES + lane]
-        reach = W[P_RB * LANES + lane] + rc
-        cx = W[(POS + 2 * c) * LANES + lane]
-        cy = W[(POS + 2 * c + 1) * LANES + lane]
-        dx = cx - W[(POS + 2 * k) * LANES + lane]
-        dy = cy - W[(POS + 2 * k + 1) * LANES + lane]
+        radius = W[radius_row * LANES + lane]
+        reach = W[P_RB * LANES + lane] + radius
+        dx = W[(POS + 2 * a) * LANES + lane] - W[(POS + 2 * b) * LANES + lane]
+        dy = W[(POS + 2 * a + 1) * LANES + lane] - W[(POS + 2 * b + 1) * LANES + lane]
         d2 = dx * dx + dy * dy
         inside = d2 < reach * reach
-        inv_old = W[at_root + lane]
-        inv = rsqrt_next(d2, inv_old)
-        W[at_root + lane] = inv if inside else inv_old
-        nx = dx * inv
-        ny = dy * inv
-        rvx = W[(VEL + 2 * c) * LANES + lane] - W[(VEL + 2 * k) * LANES + lane]
-        rvy = W[(VEL + 2 * c + 1) * LANES + lane] - W[(VEL + 2 * k + 1) * LANES + lane]
-        vclose = -(rvx * nx + rvy * ny)
-        fn, rd, qd, dloss, de = normal_lane(
-            reach - d2 * inv, vclose, 2, W[P_LIMIT * LANES + lane] * rc, c, inside, W, lane,
-            ROOTS + 20 * j + slot + 1,
-        )  # fmt: skip
-        if ENERGY:
-            W[LOSS * LANES + lane] += dloss
-            W[ELASTIC * LANES + lane] += de
-        fx = fn * nx if inside else 0.0
-        fy = fn * ny if inside else 0.0
-        W[CAGE_FX * LANES + lane] += fx
-        W[CAGE_FY * LANES + lane] += fy
-        W[(ACC_NEW + 2 * k) * LANES + lane] -= fx
-        W[(ACC_NEW + 2 * k + 1) * LANES + lane] -= fy
-        W[(FCON + 6 * j + 4 + side) * LANES + lane] = fn
-
-
-@inline
-def _ball_ball_lanes(k, W):
-    """Ball k against ball k + 1 without a cage, every lane."""
-    m = k + 1 if k + 1 < BALLS else 0
-    root = ROOTS + 20 * k + R_SIDE0
-    fc = (FCON + 6 * k) * LANES
-    for lane in range(LANES):
-        rb = W[P_RB * LANES + lane]
-        reach = 2.0 * rb
-        dx = W[(POS + 2 * m) * LANES + lane] - W[(POS + 2 * k) * LANES + lane]
-        dy = W[(POS + 2 * m + 1) * LANES + lane] - W[(POS + 2 * k + 1) * LANES + lane]
-        d2 = dx * dx + dy * dy
-        inside = d2 < reach * reach
-        at = root * LANES + lane
+        at = root_row * LANES + lane
         inv_old = W[at]
         inv = rsqrt_next(d2, inv_old)
         W[at] = inv if inside else inv_old
         nx = dx * inv
         ny = dy * inv
-        rvx = W[(VEL + 2 * m) * LANES + lane] - W[(VEL + 2 * k) * LANES + lane]
-        rvy = W[(VEL + 2 * m + 1) * LANES + lane] - W[(VEL + 2 * k + 1) * LANES + lane]
+        rvx = W[(VEL + 2 * a) * LANES + lane] - W[(VEL + 2 * b) * LANES + lane]
+        rvy = W[(VEL + 2 * a + 1) * LANES + lane] - W[(VEL + 2 * b + 1) * LANES + lane]
         vclose = -(rvx * nx + rvy * ny)
         fn, rd, qd, dloss, de = normal_lane(
-            reach - d2 * inv, vclose, 4, W[P_LIMIT * LANES + lane] * rb, k, inside, W, lane,
-            root + 1,
+            reach - d2 * inv, vclose, kind, W[P_LIMIT * LANES + lane] * radius, body, inside, W,
+            lane, root_row + 1,
         )  # fmt: skip
         if ENERGY:
             W[LOSS * LANES + lane] += dloss
             W[ELASTIC * LANES + lane] += de
         fx = fn * nx if inside else 0.0
         fy = fn * ny if inside else 0.0
-        W[(ACC_NEW + 2 * m) * LANES + lane] += fx
-        W[(ACC_NEW + 2 * m + 1) * LANES + lane] += fy
-        W[(ACC_NEW + 2 * k) * LANES + lane] -= fx
-        W[(ACC_NEW + 2 * k + 1) * LANES + lane] -= fy
-        W[fc + 4 * LANES + lane] = fn
-        W[fc + 5 * LANES + lane] = 0.0
+        W[(ACC_NEW + 2 * a) * LANES + lane] += fx
+        W[(ACC_NEW + 2 * a + 1) * LANES + lane] += fy
+        W[(ACC_NEW + 2 * b) * LANES + lane] -= fx
+        W[(ACC_NEW + 2 * b + 1) * LANES + lane] -= fy
+        W[fcon_row * LANES + lane] = fn
 
 
 @njit(error_model="numpy", _nrt=False)
@@ -595,9 +536,8 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
                 for lane in range(LANES):
                     dt = W[P_DT * LANES + lane]
                     a = W[(ACC + r) * LANES + lane]
-                    W[(POS + r) * LANES + lane] += W[(VEL + r) * LANES + lane] * dt + a * (
-                        0.5 * dt * dt
-                    )
+                    v = W[(VEL + r) * LANES + lane]
+                    W[(POS + r) * LANES + lane] += v * dt + a * (0.5 * dt * dt)
                     W[(VEL + r) * LANES + lane] += a * dt
             for r in range(BALLS * LANES):
                 dt = W[P_DT * LANES + r % LANES]
