@@ -74,8 +74,9 @@ def _run_and_write(tasks: list[TraceTask]) -> list[dict]:
 
 def _run(ctx: TraceContext, tasks: list[TraceTask]) -> list[dict]:
     """The records of ``tasks``: through the ensemble kernel when the spec's traces run there
-    (runner.batched), else one by one."""
-    if len(tasks) > 1 and batched(ctx):
+    (runner.batched), even a lone one (so a trace's values do not depend on the batch it fell
+    in: a resumed or redistributed job gives the same dataset), else one by one."""
+    if batched(ctx):
         return run_traces(ctx, tasks)
     return [run_trace(ctx, task) for task in tasks]
 

@@ -87,11 +87,11 @@ def _recording(kern, rec: np.ndarray, lane: int) -> Recording:
     )
 
 
-def _run_group(spec: KernelSpec, scenes: list[Scene], lanes: int) -> list:
-    """Run up to ``lanes`` scenes of one kernel; a result or a DivergenceError per scene."""
+def _run_group(spec: KernelSpec, scenes: list[Scene], limits: list, lanes: int) -> list:
+    """Run up to ``lanes`` scenes of one kernel (``limits`` their stability limits); a result or
+    a DivergenceError per scene."""
     z = scenes[0].bearing.n_balls
     every = scenes[0].record_every
-    limits = [checked_limit(s) for s in scenes]
     padded = scenes + [scenes[-1]] * (lanes - len(scenes))
     kern = get_kernel(spec, {"BALLS": z, "LANES": lanes})
     PR, W = _pack(lanes, padded, kern)
@@ -151,6 +151,7 @@ def simulate_batch(
     from signatelec.engines.budget import check_run
 
     groups: dict[tuple, list[int]] = defaultdict(list)
+    limits = []
     for i, scene in enumerate(scenes):
         if scene.numerics.fidelity != "dem":
             raise SceneError(
@@ -158,6 +159,7 @@ def simulate_batch(
                 "only; run it with simulate()"
             )
         check_run(scene)
+        limits.append(checked_limit(scene))
         spec = KernelSpec.from_scene(scene)
         why = refusal(spec)
         if why:
@@ -167,9 +169,8 @@ def simulate_batch(
     for (spec, _, _), members in groups.items():
         for start in range(0, len(members), lanes):
             chunk = members[start : start + lanes]
-            for i, res in zip(
-                chunk, _run_group(spec, [scenes[i] for i in chunk], lanes), strict=True
-            ):
+            group = _run_group(spec, [scenes[i] for i in chunk], [limits[i] for i in chunk], lanes)
+            for i, res in zip(chunk, group, strict=True):
                 results[i] = res
     if not return_exceptions:
         for res in results:
