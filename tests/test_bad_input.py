@@ -52,6 +52,57 @@ SCENE_CASES = {
         ("operation", "unknown section; allowed: bearing, operating"),
     ),
     "section_not_a_table": Case('effects = "all"\n', (), ("effects = 'all'", "must be a table")),
+    # defects and abnormal loads
+    "defect_location": Case(
+        '[[defects]]\nlocation = "cage"\nlength_m = 1e-3\ndepth_m = 1e-5\n',
+        (),
+        ("defects[0].location = 'cage'", "must be one of outer, inner, ball"),
+    ),
+    "defect_too_deep": Case(
+        '[[defects]]\nlocation = "outer"\nlength_m = 1e-3\ndepth_m = 1e-3\n',
+        (),
+        ("defects[0].depth_m = 0.001", "must be <= 0.00063 m (10 % of the ball radius)"),
+    ),
+    "defect_longer_than_its_ball": Case(
+        '[[defects]]\nlocation = "ball"\nlength_m = 0.05\ndepth_m = 1e-5\n',
+        (),
+        ("defects[0].length_m = 0.05", "shorter than the circumference of the ball"),
+    ),
+    "defect_on_a_ball_that_is_not_there": Case(
+        '[[defects]]\nlocation = "ball"\nball = 13\nlength_m = 1e-3\ndepth_m = 1e-5\n',
+        (),
+        ("defects[0].ball = 13", "must be a ball in [0, 12]"),
+    ),
+    "defects_not_an_array": Case(
+        '[defects]\nlocation = "outer"\n', (), ("defects = ", "must be an array of tables")
+    ),
+    "load_table_times_decrease": Case(
+        "[loads]\nload_table_time_s = [0.02, 0.01]\nload_table_radial_load_n = [1.0, 2.0]\n",
+        (),
+        ("loads.load_table_time_s[1] = 0.01", "times must increase"),
+    ),
+    "load_table_lengths_differ": Case(
+        "[loads]\nload_table_time_s = [0.02]\nload_table_radial_load_n = [1.0, 2.0]\n",
+        (),
+        ("loads.load_table_radial_load_n", "as many points as load_table_time_s (1)"),
+    ),
+    "unbalance_beyond_the_load_limit": Case(
+        "[loads]\nunbalance_force_n = 1e6\n", (), ("loads.unbalance_force_n", "the largest F_r")
+    ),
+    "unbalance_in_both_forms": Case(
+        "[loads]\nunbalance_force_n = 10.0\nunbalance_mass_kg = 0.01\n"
+        "unbalance_eccentricity_m = 1e-3\n",
+        (),
+        ("loads.unbalance_force_n = 10.0", "not both"),
+    ),
+    "lobes_not_an_integer": Case(
+        "[housing]\nout_of_round_lobes = 2.5\n", (), ("housing.out_of_round_lobes", "integer")
+    ),
+    "lobes_missing": Case(
+        "[housing]\nout_of_round_amplitude_m = 1e-6\n",
+        (),
+        ("housing.out_of_round_amplitude_m", "needs out_of_round_lobes >= 1"),
+    ),
     # types
     "string_for_number": Case(
         '[operating]\nradial_load_n = "5820"\n', (), ("operating.radial_load_n", "must be a number")

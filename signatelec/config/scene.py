@@ -535,6 +535,8 @@ def _validate_abnormal(scene: Scene) -> None:
     r_out = b.outer_race_radius_m + op.clearance_m
     radii = {"outer": r_out, "inner": b.inner_race_radius_m, "ball": b.ball_radius_m}
     names = {"outer": "outer race", "inner": "inner race", "ball": "ball"}
+    if len(scene.defects) > MAX_DEFECTS:
+        check.fail("defects", f"{len(scene.defects)} defects", f"at most {MAX_DEFECTS}")
     for i, d in enumerate(scene.defects):
         if not isinstance(d, Defect):
             check.fail(f"defects[{i}]", d, "must be a Defect")

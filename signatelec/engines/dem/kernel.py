@@ -73,6 +73,8 @@ from signatelec.engines.dem.records import (
     R_OUTER,
     R_SIDE0,
     R_WALL,
+    REC_ROTATION,
+    XI_ROTATION,
 )
 from signatelec.physics import contact as _contact
 from signatelec.physics.defects import INNER_SIDE, OUTER_SIDE
@@ -198,9 +200,7 @@ def forces(t, p, s, acc, step):
     r_out, r_rate, fr, omega = schedule(t, p)
     s.sched[0] = r_out
     s.sched[1] = fr
-    phi = 0.0  # inner-ring angle
-    if DEFECTS_INNER or UNBALANCE:
-        phi = ring_angle_rad(t, p)
+    phi = ring_angle_rad(t, p) if DEFECTS_INNER or UNBALANCE else 0.0  # inner-ring angle
     if LOAD_TABLE:
         fr = scheduled_load(t, p, fr)
         s.sched[1] = fr
@@ -507,7 +507,7 @@ def record(p, s, rec, i, t):
         rec.sched[i, q] = s.sched[q]
     if DEFECTS_BALL:
         for k in range(z):
-            rec.angle[i, k] = s.angle[k]
+            rec.fcon[i, k, REC_ROTATION] = s.xi[k, XI_ROTATION]
     if ENERGY:
         rec.energy[i, 0] = s.energy[0]
         rec.energy[i, 1] = s.energy[1]
@@ -548,7 +548,7 @@ def run(p, s, rec, step0, n_steps, record_every, rec_index0):
                 vel_f[i] += acc_f[i] * dt
             if DEFECTS_BALL:  # each ball's rotation angle, as its position
                 for k in range(z):
-                    s.angle[k] += spin[k] * dt + spin_acc[k] * half_dt2
+                    s.xi[k, XI_ROTATION] += spin[k] * dt + spin_acc[k] * half_dt2
             for k in range(z):
                 spin[k] += spin_acc[k] * dt
                 work2[nb + k, 0] = spin_acc[k]
@@ -572,7 +572,7 @@ def run(p, s, rec, step0, n_steps, record_every, rec_index0):
             for k in range(z):
                 spin[k] += spin_acc[k] * dt
                 if DEFECTS_BALL:
-                    s.angle[k] += spin[k] * dt
+                    s.xi[k, XI_ROTATION] += spin[k] * dt
         if s.status[0] != OK:
             return rec_index
         countdown -= 1

@@ -101,6 +101,8 @@ OK, OVERLAP, NONFINITE = 0, 1, 2
 #: ball k on ball k + 1 without cage, or ball k in its pocket of the rigid cage), 8-9 cage ball j
 #: on ball j + 1; slot + 10 holds an overlap root of the step before.
 R_INNER, R_OUTER, R_WALL, R_SIDE0, R_SIDE1 = 0, 2, 4, 6, 8
+#: Column of State.xi holding the ball's rotation angle, and of Recording.fcon recording it.
+XI_ROTATION, REC_ROTATION = 4, 6
 
 
 class State(NamedTuple):
@@ -111,8 +113,11 @@ class State(NamedTuple):
     acc: np.ndarray  # (N, 2) accelerations, m/s^2
     spin: np.ndarray  # (Z,) ball spin, rad/s
     spin_acc: np.ndarray  # (Z,) ball spin acceleration, rad/s^2
-    # (Z, 4) tangential spring, [ball, slot]: 0-1 displacement on the inner, outer raceway (m),
-    # 2-3 the slip speeds of the step before (m/s)
+    # (Z, 5) per-ball contact state, [ball, slot]: 0-1 tangential spring displacement on the
+    # inner, outer raceway (m), 2-3 the slip speeds of the step before (m/s), XI_ROTATION the
+    # ball's rotation angle (rad, integrated spin; tracked with ball defects only). Kept here, not
+    # in a State field of its own: a 13th field made the seed's step 40 % slower (numba passes the
+    # tuple to forces() field by field).
     xi: np.ndarray
     roots: np.ndarray  # (Z, 20) warm-started roots, see R_INNER ...
     # (Z, 6) contact forces, N, [ball, kind]: 0 inner normal, 1 outer normal, 2 inner tangential,
@@ -129,8 +134,6 @@ class State(NamedTuple):
     # rows N..N+Z-1)
     scratch: np.ndarray
     status: np.ndarray  # (4,) int64, see OK, OVERLAP, NONFINITE
-    # (Z,) ball rotation angles, rad (integrated spin; tracked with ball defects only)
-    angle: np.ndarray
 
 
 class Recording(NamedTuple):
@@ -140,10 +143,12 @@ class Recording(NamedTuple):
     pos: np.ndarray  # (R, N, 2)
     vel: np.ndarray  # (R, N, 2)
     spin: np.ndarray  # (R, Z)
-    fcon: np.ndarray  # (R, Z, 6), as State.fcon
+    # (R, Z, 7), as State.fcon in columns 0-5; column REC_ROTATION the ball's rotation angle
+    # (State.xi[:, XI_ROTATION], rad; with ball defects only). A column, not a field: a field
+    # more would change the time loop's machine code.
+    fcon: np.ndarray
     sched: np.ndarray  # (R, 4), as State.sched
     energy: np.ndarray  # (R, 4), as State.energy with the kinetic energy in column 3
-    angle: np.ndarray  # (R, Z), as State.angle
 
 
 def new_state(pos: np.ndarray) -> State:
@@ -155,14 +160,13 @@ def new_state(pos: np.ndarray) -> State:
         acc=np.zeros_like(pos, dtype=float),
         spin=np.zeros(z),
         spin_acc=np.zeros(z),
-        xi=np.zeros((z, 4)),
+        xi=np.zeros((z, 5)),
         roots=np.zeros((z, 20)),
         fcon=np.zeros((z, 6)),
         sched=np.zeros(4),
         energy=np.zeros(4),
         scratch=np.zeros((3 * z + 1, 2)),
         status=np.zeros(4, np.int64),
-        angle=np.zeros(z),
     )
 
 
@@ -173,8 +177,7 @@ def new_recording(n_instants: int, z: int) -> Recording:
         pos=np.zeros((n_instants, nb, 2)),
         vel=np.zeros((n_instants, nb, 2)),
         spin=np.zeros((n_instants, z)),
-        fcon=np.zeros((n_instants, z, 6)),
+        fcon=np.zeros((n_instants, z, 7)),
         sched=np.zeros((n_instants, 4)),
         energy=np.zeros((n_instants, 4)),
-        angle=np.zeros((n_instants, z)),
     )

@@ -18,7 +18,14 @@ import pandas as pd
 from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, contact_properties
 from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.dem.build import get_kernel, prepare
-from signatelec.engines.dem.records import OK, State, new_parameters, new_recording, new_state
+from signatelec.engines.dem.records import (
+    OK,
+    REC_ROTATION,
+    State,
+    new_parameters,
+    new_recording,
+    new_state,
+)
 from signatelec.engines.dem.spec import KernelSpec
 from signatelec.engines.results import (
     LOADED_FORCE_N,
@@ -139,7 +146,7 @@ def initial_state(scene: Scene) -> State:
 
 def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFrame]:
     z = scene.bearing.n_balls
-    t, pos, vel, spin, fcon, sched, energy, angle = (a[:n_rec] for a in rec)  # Recording order
+    t, pos, vel, spin, fcon, sched, energy = (a[:n_rec] for a in rec)  # Recording order
     ring = 2 * z
     bx, by = pos[:, :z, 0], pos[:, :z, 1]
     r2 = bx * bx + by * by
@@ -191,7 +198,7 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
         signals["cage_body_speed_rad_s"] = vel[:, z + 1, 0]
         balls["pocket_force_n"] = fcon[:, :, 4].ravel()
     if any(d.location == "ball" for d in scene.defects):
-        balls["ball_rotation_rad"] = angle.ravel()  # tracked with ball defects
+        balls["ball_rotation_rad"] = fcon[:, :, REC_ROTATION].ravel()  # tracked with ball defects
     if scene.outputs.energy:
         signals["work_in_j"] = energy[:, 0]
         signals["dissipated_j"] = energy[:, 1]
