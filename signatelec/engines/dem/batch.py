@@ -75,15 +75,16 @@ def _recording(kern, rec: np.ndarray, lane: int) -> Recording:
     n, z, nb = rec.shape[0], kern.BALLS, kern.NB
     r = rec.reshape(n, kern.REC_ROWS, kern.LANES)[:, :, lane]
     motion = r[:, kern.REC_POS : kern.REC_SPIN]
+    fcon = np.zeros((n, z, 7))  # column 6, the ball's rotation, is tracked with ball defects only
+    fcon[:, :, :6] = r[:, kern.REC_FCON : kern.REC_SCHED].reshape(n, z, 6)
     return Recording(
         time_s=r[:, kern.REC_TIME],
         pos=motion[:, : 2 * nb].reshape(n, nb, 2),
         vel=motion[:, 2 * nb :].reshape(n, nb, 2),
         spin=r[:, kern.REC_SPIN : kern.REC_FCON],
-        fcon=r[:, kern.REC_FCON : kern.REC_SCHED].reshape(n, z, 6),
+        fcon=fcon,
         sched=r[:, kern.REC_SCHED : kern.REC_ENERGY],
         energy=r[:, kern.REC_ENERGY : kern.REC_ROWS],
-        angle=np.zeros((n, z)),
     )
 
 
