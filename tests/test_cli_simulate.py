@@ -71,9 +71,13 @@ def test_bench_writes_json_with_compile_apart(tmp_path):
     out = tmp_path / "bench.json"
     out.write_text("{}")  # an earlier report is replaced
     argv = ["bench", "--duration", "0.0075", "--warm-cache", "--out", str(out)]
-    code = run_cli([*argv, "--case", "seed", "--case", "electrical=false"])
+    code = run_cli([*argv, "--case", "seed", "--case", "electrical=false", "--batch-sizes", "4"])
     assert code == 0
     report = json.loads(out.read_text())
+    # the ensemble kernel's cost per scene-step, against the single-scene kernel's
+    (batch,) = report["batch"]
+    assert batch["batch_size"] == batch["lanes"] == 4
+    assert batch["cpu_us_per_scene_step"] > 0 and batch["single_cpu_us_per_step"] > 0
     rows = {r["case"]: r for r in report["rows"]}
     assert set(rows) == {"seed", "electrical=false"}
     seed = rows["seed"]
@@ -99,6 +103,13 @@ def test_bench_refuses_an_unknown_case(tmp_path, capsys):
     code = run_cli(["bench", "--case", "warp", "--out", str(tmp_path / "b.json")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "--case 'warp'" in err[0] and "seed" in err[0]
+    assert not (tmp_path / "b.json").exists()
+
+
+def test_bench_refuses_bad_batch_sizes(tmp_path, capsys):
+    code = run_cli(["bench", "--batch-sizes", "8,zero", "--out", str(tmp_path / "b.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--batch-sizes '8,zero'" in err[0]
     assert not (tmp_path / "b.json").exists()
 
 

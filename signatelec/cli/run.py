@@ -250,9 +250,25 @@ def summary(result, out: str | None = None) -> str:
     help="Instead of the cases: the marginal CPU per simulated second of the DEM and of the "
     "quasi-static tier (seed scene, same process, best of 5 interleaved pairs).",
 )
-def bench(out, duration_s, fresh_cache, cases, tiers):
-    """Cost of the seed scene and of each scene option (us per step, compile apart)."""
-    from signatelec.studies.bench import format_table, run_bench, select_cases
+@click.option(
+    "--batch-sizes",
+    "batch_sizes",
+    type=str,
+    default="1,2,4,8,16,32",
+    show_default=True,
+    help="Batch sizes of the ensemble kernel to measure the seed scene at, CPU us per "
+    "scene-step against the single-scene kernel (comma-separated; empty: none).",
+)
+def bench(out, duration_s, fresh_cache, cases, tiers, batch_sizes):
+    """Cost of the seed scene and of each scene option (us per step, compile apart), and of
+    the seed scene in batches of the ensemble kernel (us per scene-step)."""
+    from signatelec.studies.bench import (
+        format_batch_table,
+        format_table,
+        run_batch_bench,
+        run_bench,
+        select_cases,
+    )
 
     check_writable_file(out, suffixes=(".json",))
     if tiers:
@@ -270,11 +286,23 @@ def bench(out, duration_s, fresh_cache, cases, tiers):
         click.echo(f"wrote {out}")
         return
     try:
+        sizes = tuple(int(v) for v in batch_sizes.split(",") if v.strip())
+    except ValueError:
+        sizes = ()
+    if not all(1 <= size <= 4096 for size in sizes) or (batch_sizes.strip() and not sizes):
+        raise InputError(
+            f"--batch-sizes {batch_sizes!r}: comma-separated integers from 1 to 4096 (or empty)"
+        )
+    try:
         select_cases(cases)
         report = run_bench(duration_s=duration_s, fresh_cache=fresh_cache, cases=cases)
+        if sizes:
+            report["batch"] = run_batch_bench(sizes, duration_s)
     except SceneError as exc:
         raise InputError(str(exc)) from None
     click.echo(format_table(report))
+    if sizes:
+        click.echo(format_batch_table(report["batch"]))
     write_bytes_atomic(out, json.dumps(report, indent=2).encode("utf-8"))
     click.echo(f"wrote {out}")
 

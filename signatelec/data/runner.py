@@ -72,6 +72,10 @@ def warm_up(ctx: TraceContext, *, imports: bool = True) -> float:
             duration_s=scene.setup_time_s + 40.0 / rate, sample_rate_hz=rate
         )
         result = simulate(tiny)
+        if batched(ctx):  # and the ensemble kernel the traces run in
+            from signatelec.engines.dem.batch import simulate_batch
+
+            simulate_batch([tiny])
         if imports:
             sig = result.signals.tail(40)
             model = MeasurementModel(sample_rate_hz=rate / 4.0, anti_alias_order=2)
@@ -213,6 +217,67 @@ def _solve_clearance(ctx: TraceContext, rec: dict) -> float:
         raise EpsilonError(str(exc)) from None
 
 
+def _trace_scene(ctx: TraceContext, task: TraceTask, rec: dict) -> tuple[Scene, float, int]:
+    """The scene of the record's trace (its clearance solved from a target epsilon, the
+    condition its factors ask for), with the record's simulation and condition labels filled
+    in; its window's first instant and sample count."""
+    if not math.isnan(rec["epsilon_target"]):
+        rec["clearance_m"] = _solve_clearance(ctx, rec)
+        rec["regime"] = regime_of(rec["clearance_m"])
+    scene = ctx.scene.with_overrides(
+        radial_load_n=rec["radial_load_n"],
+        clearance_m=rec["clearance_m"],
+        omega_rad_s=rec["omega_rad_s"],
+        initial_ball_angle_rad=rec["initial_ball_angle_rad"],
+    )
+    scene = condition_scene(task, scene)
+    rec.update(condition_labels(scene))
+    scene, t0, n = trace_scene(ctx, scene)
+    dt = scene.numerics.dt_s
+    rec["dt_s"], rec["integrator"] = dt, scene.numerics.integrator
+    rec["simulation_rate_hz"] = 1.0 / (scene.record_every * dt)
+    rec["t0_s"], rec["n_samples"] = t0, n
+    return scene, t0, n
+
+
+def _measure(ctx: TraceContext, task: TraceTask, rec: dict, result, t0: float, n: int) -> None:
+    """The record's measured labels and signals from the simulation ``result``."""
+    m = ctx.measurement
+    sig = result.signals
+    keep = sig["time_s"].to_numpy() >= t0 - m.guard_s - 1e-12
+    clean = m.clean(sig["time_s"].to_numpy()[keep], sig[ctx.signal].to_numpy()[keep], t0, n)
+    t = sig["time_s"].to_numpy()
+    window = sig[(t >= t0 - 1e-12) & (t <= t0 + (n - 1) / m.sample_rate_hz + 1e-12)]
+    rec["epsilon"] = float(window["epsilon"].mean())
+    rec["delta_r_m"] = float(window["delta_r_m"].mean())
+    rec["max_ball_load_n"] = float(window["max_ball_load_n"].mean())
+    rng = trace_rng(ctx.root_seed, task.trace_id, 1)
+    draw = m.draw(rng)
+    rec["noise_fraction"] = draw.noise_fraction
+    rec["drift_fraction"] = draw.drift_fraction
+    rec["offset_ohm"] = draw.offset_ohm
+    measured, clean_column = TRACE_COLUMNS[ctx.signal]
+    rec[clean_column] = clean
+    rec["resistance_mean_ohm"] = float(window["resistance_ohm"].mean())
+    if ctx.signal == "resistance_ohm":
+        rec["resistance_mean_ohm"] = float(np.mean(clean))
+    rec[measured] = m.measure(clean, draw, rng)
+
+
+#: What makes a trace fail (status "failed" and the error) rather than stop the job.
+_TRACE_ERRORS = (SceneError, EpsilonError, MeasurementError)
+
+
+def _failed(rec: dict, exc: Exception) -> None:
+    rec["status"] = STATUS_FAILED
+    rec["error"] = f"{type(exc).__name__}: {exc}"
+    rec.update(dict.fromkeys(SIGNALS, np.zeros(0)))
+
+
+def _warnings(caught) -> str:
+    return " | ".join(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+
+
 def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
     """Simulate one trace and measure it: a record of labels and signals (never raises for a
     scene that is not allowed, a divergence or an unreachable epsilon: those give status
@@ -221,52 +286,76 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
     from signatelec.engines.simulate import simulate
 
     cpu0 = time.thread_time()
-    m = ctx.measurement
     rec = _new_record(ctx, task)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            if not math.isnan(rec["epsilon_target"]):
-                rec["clearance_m"] = _solve_clearance(ctx, rec)
-                rec["regime"] = regime_of(rec["clearance_m"])
-            scene = ctx.scene.with_overrides(
-                radial_load_n=rec["radial_load_n"],
-                clearance_m=rec["clearance_m"],
-                omega_rad_s=rec["omega_rad_s"],
-                initial_ball_angle_rad=rec["initial_ball_angle_rad"],
-            )
-            scene = condition_scene(task, scene)
-            rec.update(condition_labels(scene))
-            scene, t0, n = trace_scene(ctx, scene)
-            dt = scene.numerics.dt_s
-            rec["dt_s"], rec["integrator"] = dt, scene.numerics.integrator
-            rec["simulation_rate_hz"] = 1.0 / (scene.record_every * dt)
-            rec["t0_s"], rec["n_samples"] = t0, n
-            result = simulate(scene)
-            sig = result.signals
-            keep = sig["time_s"].to_numpy() >= t0 - m.guard_s - 1e-12
-            clean = m.clean(sig["time_s"].to_numpy()[keep], sig[ctx.signal].to_numpy()[keep], t0, n)
-            t = sig["time_s"].to_numpy()
-            window = sig[(t >= t0 - 1e-12) & (t <= t0 + (n - 1) / m.sample_rate_hz + 1e-12)]
-            rec["epsilon"] = float(window["epsilon"].mean())
-            rec["delta_r_m"] = float(window["delta_r_m"].mean())
-            rec["max_ball_load_n"] = float(window["max_ball_load_n"].mean())
-            rng = trace_rng(ctx.root_seed, task.trace_id, 1)
-            draw = m.draw(rng)
-            rec["noise_fraction"] = draw.noise_fraction
-            rec["drift_fraction"] = draw.drift_fraction
-            rec["offset_ohm"] = draw.offset_ohm
-            measured, clean_column = TRACE_COLUMNS[ctx.signal]
-            rec[clean_column] = clean
-            rec["resistance_mean_ohm"] = float(window["resistance_ohm"].mean())
-            if ctx.signal == "resistance_ohm":
-                rec["resistance_mean_ohm"] = float(np.mean(clean))
-            rec[measured] = m.measure(clean, draw, rng)
-        messages = dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught)
-        rec["warnings"] = " | ".join(messages)
-    except (SceneError, DivergenceError, EpsilonError, MeasurementError) as exc:
-        rec["status"] = STATUS_FAILED
-        rec["error"] = f"{type(exc).__name__}: {exc}"
-        rec.update(dict.fromkeys(SIGNALS, np.zeros(0)))
+            scene, t0, n = _trace_scene(ctx, task, rec)
+            _measure(ctx, task, rec, simulate(scene), t0, n)
+        rec["warnings"] = _warnings(caught)
+    except (*_TRACE_ERRORS, DivergenceError) as exc:
+        _failed(rec, exc)
     rec["cpu_s"] = time.thread_time() - cpu0
     return rec
+
+
+def batched(ctx: TraceContext) -> bool:
+    """Whether the spec's traces run through the ensemble kernel (:func:`run_traces`): DEM
+    traces whose kernel it carries (signatelec.engines.dem.batch.refusal)."""
+    from signatelec.engines.dem.batch import refusal
+    from signatelec.engines.dem.spec import KernelSpec
+    from signatelec.engines.fidelity import apply_fidelity
+
+    try:
+        scene = apply_fidelity(ctx.scene, ctx.fidelity)
+    except SceneError:
+        return False
+    return scene.numerics.fidelity == "dem" and refusal(KernelSpec.from_scene(scene)) is None
+
+
+def run_traces(ctx: TraceContext, tasks: list[TraceTask]) -> list[dict]:
+    """:func:`run_trace` of each task, their simulations run together through the ensemble
+    kernel (:func:`signatelec.engines.dem.batch.simulate_batch`): the same records, the CPU time
+    of the batch shared among its traces by their steps."""
+    from signatelec.engines.dem.batch import LANES, simulate_batch
+    from signatelec.engines.results import SimulationResult
+    from signatelec.engines.simulate import simulate
+
+    cpu0 = time.thread_time()
+    recs = [_new_record(ctx, task) for task in tasks]
+    ready = []  # (index, scene, t0, n) of the traces that reach the simulation
+    caught: dict[int, list] = {}
+    for i, rec in enumerate(recs):
+        try:
+            with warnings.catch_warnings(record=True) as caught[i]:
+                warnings.simplefilter("always")
+                ready.append((i, *_trace_scene(ctx, rec)))
+        except _TRACE_ERRORS as exc:
+            _failed(rec, exc)
+    with warnings.catch_warnings(record=True) as shared:
+        warnings.simplefilter("always")
+        try:
+            results = simulate_batch([r[1] for r in ready], lanes=LANES, return_exceptions=True)
+        except SceneError:  # a scene the batch refuses: each on its own, with its own error
+            results = [None] * len(ready)
+    for (i, scene, t0, n), result in zip(ready, results, strict=True):
+        rec = recs[i]
+        try:
+            if not isinstance(result, SimulationResult):
+                # alone, as run_trace: its own error, a divergence with its measured cure
+                result = simulate(scene)
+            with warnings.catch_warnings(record=True) as more:
+                warnings.simplefilter("always")
+                _measure(ctx, tasks[i], rec, result, t0, n)
+            rec["warnings"] = _warnings([*caught[i], *shared, *more])
+        except Exception as exc:
+            if not isinstance(exc, (*_TRACE_ERRORS, RuntimeError)):
+                raise
+            _failed(rec, exc)
+    steps = [r[1].n_steps for r in ready]
+    cpu = time.thread_time() - cpu0
+    for rec in recs:
+        rec["cpu_s"] = cpu / len(recs)
+    for (i, *_), n_steps in zip(ready, steps, strict=True):
+        recs[i]["cpu_s"] = cpu * n_steps / max(sum(steps), 1)
+    return recs

@@ -23,7 +23,15 @@ from typing import Any
 
 from signatelec.data import lifeline
 from signatelec.data.design import TraceTask, design_traces
-from signatelec.data.runner import STATUS_OK, check_budget, labels, run_trace, warm_up
+from signatelec.data.runner import (
+    STATUS_OK,
+    batched,
+    check_budget,
+    labels,
+    run_trace,
+    run_traces,
+    warm_up,
+)
 from signatelec.data.spec import Spec, TraceContext
 from signatelec.data.store import (
     MANIFEST_FILE,
@@ -54,11 +62,31 @@ def _worker_init(ctx: TraceContext, out: str, metadata: dict, job_pid: int) -> N
     warm_up(ctx)
 
 
-def _run_and_write(task: TraceTask) -> dict:
-    """In a local worker: run the trace, write its part file, return its labels only."""
-    rec = run_trace(_WORKER["ctx"], task)
-    write_part(_WORKER["out"], rec, _WORKER["metadata"])
-    return labels(rec)
+def _run_and_write(tasks: list[TraceTask]) -> list[dict]:
+    """In a local worker: run the traces (together when the spec is batched), write their part
+    files, return their labels only."""
+    out = []
+    for rec in _run(_WORKER["ctx"], tasks):
+        write_part(_WORKER["out"], rec, _WORKER["metadata"])
+        out.append(labels(rec))
+    return out
+
+
+def _run(ctx: TraceContext, tasks: list[TraceTask]) -> list[dict]:
+    """The records of ``tasks``: through the ensemble kernel when the spec's traces run there
+    (runner.batched), even a lone one (so a trace's values do not depend on the batch it fell
+    in: a resumed or redistributed job gives the same dataset), else one by one."""
+    if batched(ctx):
+        return run_traces(ctx, tasks)
+    return [run_trace(ctx, task) for task in tasks]
+
+
+def _batches(ctx: TraceContext, tasks: list[TraceTask]) -> list[list[TraceTask]]:
+    """The traces in groups of the ensemble kernel's lane width (one each when not batched)."""
+    from signatelec.engines.dem.batch import LANES
+
+    size = LANES if batched(ctx) else 1
+    return [tasks[i : i + size] for i in range(0, len(tasks), size)]
 
 
 def _process_context():
@@ -87,10 +115,10 @@ def _local_results(
 ) -> Iterator[dict]:
     """Labels of each finished trace, whose part file is written (by the worker)."""
     if workers == 0:
-        for task in tasks:
-            rec = run_trace(ctx, task)
-            write_part(out, rec, metadata)
-            yield rec
+        for batch in _batches(ctx, tasks):
+            for rec in _run(ctx, batch):
+                write_part(out, rec, metadata)
+                yield rec
         return
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
@@ -100,21 +128,23 @@ def _local_results(
         initializer=_worker_init,
         initargs=(ctx, str(out), metadata, os.getpid()),
     )
-    queue = iter(tasks)
+    batches = _batches(ctx, tasks)
+    queue = iter(batches)
+    in_flight = IN_FLIGHT_PER_WORKER * workers if len(batches) == len(tasks) else 2 * workers
     pending: set = set()
     with pool:
         try:
             while True:
-                while len(pending) < IN_FLIGHT_PER_WORKER * workers:
-                    task = next(queue, None)
-                    if task is None:
+                while len(pending) < in_flight:
+                    batch = next(queue, None)
+                    if batch is None:
                         break
-                    pending.add(pool.submit(_run_and_write, task))
+                    pending.add(pool.submit(_run_and_write, batch))
                 if not pending:
                     break
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in finished:
-                    yield fut.result()
+                    yield from fut.result()
         except BaseException:  # an error, Ctrl-C, or the caller stopped: the workers end now
             lifeline.stop_pool(pool)
             raise
@@ -130,19 +160,20 @@ def _dask_results(
     client.run(warm_up, ctx)  # each worker loads (or compiles) the kernels once
     shared = client.scatter(ctx, broadcast=True)
     limit = IN_FLIGHT_PER_WORKER * max(sum(client.nthreads().values()), 1)
-    queue = iter(tasks)
+    queue = iter(_batches(ctx, tasks))
     running = as_completed()
-    for task in itertools.islice(queue, limit):
-        running.add(client.submit(run_trace, shared, task, pure=False))
+    for batch in itertools.islice(queue, limit):
+        running.add(client.submit(_run, shared, batch, pure=False))
     try:
         for fut in running:
-            rec = fut.result()
+            recs = fut.result()
             fut.release()
-            write_part(out, rec, metadata)
-            task = next(queue, None)
-            if task is not None:
-                running.add(client.submit(run_trace, shared, task, pure=False))
-            yield rec
+            batch = next(queue, None)
+            if batch is not None:
+                running.add(client.submit(_run, shared, batch, pure=False))
+            for rec in recs:
+                write_part(out, rec, metadata)
+                yield rec
     finally:
         running.clear()
 

@@ -39,15 +39,7 @@ def simulate(
     else:
         from signatelec.engines.dem.run import simulate_dem as engine
     if out_dir is None:
-        result = engine(scene, progress=progress)
-        if scene.effects.lubrication != "none":
-            # post-processing of the recorded kinematics and loads: nothing of it runs when off
-            from signatelec.engines.lubrication import add_lubrication
-
-            t0 = time.perf_counter()
-            add_lubrication(result)
-            result.timings["lubrication_s"] = time.perf_counter() - t0
-        return result
+        return post_process(engine(scene, progress=progress))
 
     from signatelec.engines.stream import TableStream
     from signatelec.io import check_output_dir, is_simulate_output, replace_directory
@@ -62,4 +54,16 @@ def simulate(
             stream.close()
     result.out_dir = Path(out_dir)
     result.steady_signal_means = stream.steady_means()
+    return result
+
+
+def post_process(result: SimulationResult) -> SimulationResult:
+    """Add to an in-memory ``result`` the columns its scene computes from the recorded
+    kinematics and loads (the lubricated contacts); nothing of it runs when they are off."""
+    if result.scene.effects.lubrication != "none":
+        from signatelec.engines.lubrication import add_lubrication
+
+        t0 = time.perf_counter()
+        add_lubrication(result)
+        result.timings["lubrication_s"] = time.perf_counter() - t0
     return result

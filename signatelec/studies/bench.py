@@ -168,3 +168,63 @@ def tier_marginal_cost(repeat: int = 5, sample_rate_hz: float = 20000.0) -> dict
         "runs": total,
         "user_runs": user,
     }
+
+
+#: Batch sizes of the ensemble kernel's bench (``signatelec bench --batch-sizes``).
+BATCH_SIZES = (1, 2, 4, 8, 16, 32)
+
+
+def run_batch_bench(
+    sizes: tuple[int, ...] = BATCH_SIZES, duration_s: float = 0.03, rounds: int = 5
+) -> list[dict]:
+    """CPU microseconds per scene-step of the seed scene through the ensemble kernel
+    (:func:`signatelec.engines.dem.batch.simulate_batch`) for each batch size, against the
+    single-scene kernel measured in the same rounds, interleaved (single, then each size, in
+    every round), so a load on the shared host weighs on both alike: medians of ``rounds``.
+    A batch of B < LANES scenes runs in a kernel of B lanes; larger ones in lane groups of
+    LANES. The scenes differ in load (0.9-1.1 x the seed's), so no two lanes are the same."""
+    import statistics
+
+    from signatelec.engines.dem.batch import LANES, simulate_batch
+    from signatelec.engines.dem.run import simulate_dem
+
+    base = bench_scene({}, duration_s)
+    n_steps = base.n_steps
+    loads = [base.operating.radial_load_n * (0.9 + 0.2 * i / 31) for i in range(max(sizes))]
+    scenes = [base.with_overrides(radial_load_n=f) for f in loads]
+    simulate_dem(base)  # compile (or load) first
+    for size in sizes:
+        simulate_batch(scenes[:1], lanes=min(size, LANES))
+    single, batch = [], {size: [] for size in sizes}
+    for _ in range(max(1, rounds)):
+        single.append(simulate_dem(base).timings["run_cpu_s"] / n_steps)
+        for size in sizes:
+            results = simulate_batch(scenes[:size], lanes=min(size, LANES))
+            cpu = sum(r.timings["run_cpu_s"] for r in results)
+            batch[size].append(cpu / (size * n_steps))
+    single_us = 1e6 * statistics.median(single)
+    rows = []
+    for size in sizes:
+        us = 1e6 * statistics.median(batch[size])
+        rows.append(
+            {
+                "batch_size": size,
+                "lanes": min(size, LANES),
+                "cpu_us_per_scene_step": us,
+                "single_cpu_us_per_step": single_us,
+                "speed_up": single_us / us,
+                "rounds": len(batch[size]),
+            }
+        )
+    return rows
+
+
+def format_batch_table(rows: list[dict]) -> str:
+    head = f"{'batch':>5s} {'lanes':>5s} {'cpu us/scene-step':>17s} {'single':>7s} {'speed-up':>8s}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r['batch_size']:5d} {r['lanes']:5d} {r['cpu_us_per_scene_step']:17.3f} "
+            f"{r['single_cpu_us_per_step']:7.3f} {r['speed_up']:8.2f}"
+        )
+    return "\n".join(lines)

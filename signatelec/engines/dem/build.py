@@ -42,10 +42,13 @@ from signatelec.io import CacheWarning, cache_dir
 
 TEMPLATE = Path(__file__).with_name("kernel.py")
 TEMPLATE_MODULE = "signatelec.engines.dem.kernel"
+#: The ensemble kernel (:mod:`.ensemble`): the same flags plus the batch's BALLS and LANES.
+ENSEMBLE_TEMPLATE = Path(__file__).with_name("ensemble.py")
+ENSEMBLE_MODULE = "signatelec.engines.dem.ensemble"
 #: The functions called from Python, compiled (or loaded) before a run by :func:`prepare`.
 ENTRY_POINTS = ("start", "run", "forces")
 _BLOCK = re.compile(r"^# --- kernel spec:[^\n]*\n(.*?)^# --- end of kernel spec", re.M | re.S)
-_LOADED: dict[tuple[KernelSpec, Path], ModuleType] = {}
+_LOADED: dict[tuple, ModuleType] = {}
 
 
 def _assignments(block: str) -> dict[str, object]:
@@ -58,8 +61,9 @@ def _assignments(block: str) -> dict[str, object]:
     return out
 
 
-def specialise(source: str, spec: KernelSpec) -> str:
-    """``source`` (the text of kernel.py) with its spec block assigning ``spec.flags()``.
+def specialise(source: str, spec: KernelSpec, constants: dict[str, int] | None = None) -> str:
+    """``source`` (the text of kernel.py) with its spec block assigning ``spec.flags()`` and
+    ``constants`` (the ensemble kernel's BALLS and LANES).
 
     Raises RuntimeError when the source has not exactly one spec block, or when the block names
     a flag no kernel option defines (the kernel would read a constant no spec sets).
@@ -68,7 +72,7 @@ def specialise(source: str, spec: KernelSpec) -> str:
     if len(blocks) != 1:
         raise RuntimeError(f"kernel.py: {len(blocks)} kernel spec blocks; expected exactly one")
     block = blocks[0]
-    flags = spec.flags()
+    flags = spec.flags() | dict(constants or {})
     unknown = sorted(set(_assignments(block.group(1))) - set(flags))
     if unknown:
         raise RuntimeError(f"kernel.py reads {', '.join(unknown)}: no kernel option defines it")
@@ -101,11 +105,12 @@ def _imported_modules(name: str, tree: ast.Module) -> set[str]:
     return {m for m in found if m == "signatelec" or m.startswith("signatelec.")}
 
 
-def kernel_sources() -> dict[str, str]:
-    """Source text of kernel.py and of every signatelec module it imports (at top level,
-    transitively), by module name: all the code, constants and types the kernel compiles."""
+def kernel_sources(template_module: str = TEMPLATE_MODULE) -> dict[str, str]:
+    """Source text of kernel.py (or ``template_module``) and of every signatelec module it
+    imports (at top level, transitively), by module name: all the code, constants and types the
+    kernel compiles."""
     sources: dict[str, str] = {}
-    pending = [TEMPLATE_MODULE]
+    pending = [template_module]
     while pending:
         name = pending.pop()
         if name in sources:
@@ -138,24 +143,30 @@ def cache_key(source: str, sources: dict[str, str], versions: dict[str, str]) ->
     return h.hexdigest()[:24]
 
 
-def kernel_name(spec: KernelSpec) -> tuple[str, str]:
-    """Module name (from :func:`cache_key`) and specialised source of the kernel for ``spec``."""
-    source = specialise(TEMPLATE.read_text(encoding="utf-8"), spec)
-    return f"signatelec_kernel_{cache_key(source, kernel_sources(), versions())}", source
+def kernel_name(spec: KernelSpec, constants: dict[str, int] | None = None) -> tuple[str, str]:
+    """Module name (from :func:`cache_key`) and specialised source of the kernel for ``spec``;
+    with ``constants`` (BALLS, LANES), of the ensemble kernel."""
+    template, module, prefix = TEMPLATE, TEMPLATE_MODULE, "signatelec_kernel"
+    if constants is not None:
+        template, module, prefix = ENSEMBLE_TEMPLATE, ENSEMBLE_MODULE, "signatelec_ensemble"
+    source = specialise(template.read_text(encoding="utf-8"), spec, constants)
+    return f"{prefix}_{cache_key(source, kernel_sources(module), versions())}", source
 
 
-def get_kernel(spec: KernelSpec) -> ModuleType:
+def get_kernel(spec: KernelSpec, constants: dict[str, int] | None = None) -> ModuleType:
     """The kernel module for ``spec`` (numba compiles or loads it on first call; see
-    :func:`prepare`)."""
+    :func:`prepare`); with ``constants`` (``{"BALLS": Z, "LANES": L}``), the ensemble kernel
+    for L scenes of Z balls."""
     directory = cache_dir("kernels")
-    loaded = _LOADED.get((spec, directory))
+    key = (spec, directory, tuple(sorted((constants or {}).items())), constants is None)
+    loaded = _LOADED.get(key)
     if loaded is not None:
         return loaded
-    name, source = kernel_name(spec)
+    name, source = kernel_name(spec, constants)
     path = directory / f"{name}.py"
     _write_source(path, source)
-    module = _import(name, path, spec)
-    _LOADED[(spec, directory)] = module
+    module = _import(name, path, spec, constants)
+    _LOADED[key] = module
     return module
 
 
@@ -189,12 +200,14 @@ def _write_source(path: Path, source: str) -> None:
     _purge(path)
 
 
-def _import(name: str, path: Path, spec: KernelSpec) -> ModuleType:
+def _import(
+    name: str, path: Path, spec: KernelSpec, constants: dict[str, int] | None = None
+) -> ModuleType:
     module_spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(module_spec)
     sys.modules[name] = module
     module_spec.loader.exec_module(module)
-    flags = spec.flags()
+    flags = spec.flags() | dict(constants or {})
     got = {flag: getattr(module, flag, None) for flag in flags}
     if got != flags:
         raise RuntimeError(f"kernel {path}: flags {got}, meant {flags}")
@@ -241,6 +254,9 @@ def prepare(module: ModuleType, spec: KernelSpec, calls: dict[str, tuple]) -> Mo
                 stacklevel=2,
             )
             _purge(path)
-            module = _import(path.stem, path, spec)
+            constants = None
+            if path.stem.startswith("signatelec_ensemble"):
+                constants = {"BALLS": module.BALLS, "LANES": module.LANES}
+            module = _import(path.stem, path, spec, constants)
             _LOADED.update({k: module for k, v in _LOADED.items() if v.__name__ == path.stem})
     raise AssertionError("unreachable")

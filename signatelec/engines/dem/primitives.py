@@ -35,15 +35,47 @@ WARM = 2.0**-13
 
 
 @inline
+def rsqrt_step(x, y):
+    """The Householder step from the guess ``y`` to 1 / sqrt(x), and whether it is exact
+    (|r| < WARM; else the root must be computed cold, 1 / sqrt(x))."""
+    r = 1.0 - x * y * y
+    # (1 - r)^(-1/2) = 1 + r/2 + 3r^2/8 + 5r^3/16 + O(r^4)
+    return y * (1.0 + r * (0.5 + r * (0.375 + r * 0.3125))), abs(r) < WARM
+
+
+@inline
+def rquart_step(x, y_old, y_older):
+    """The step from the roots of the two steps before (extrapolated linearly) to x^(-1/4), and
+    whether it is exact (else 1 / sqrt(sqrt(x)))."""
+    y = 2.0 * y_old - y_older
+    y2 = y * y
+    r = 1.0 - x * y2 * y2
+    # (1 - r)^(-1/4) = 1 + r/4 + 5r^2/32 + 15r^3/128 + O(r^4)
+    return y * (1.0 + r * (0.25 + r * (0.15625 + r * 0.1171875))), abs(r) < WARM and y > 0.0
+
+
+@inline
+def rsqrt_next(x, y):
+    """1 / sqrt(x) from the guess ``y``: the Householder step where exact, else a cold root."""
+    y_new, exact = rsqrt_step(x, y)
+    if exact:
+        return y_new
+    return 1.0 / math.sqrt(x)
+
+
+@inline
+def rquart_next(x, y_old, y_older):
+    """x^(-1/4) from the roots of the two steps before (extrapolated, then corrected)."""
+    y_new, exact = rquart_step(x, y_old, y_older)
+    if exact:
+        return y_new
+    return 1.0 / math.sqrt(math.sqrt(x))
+
+
+@inline
 def rsqrt_warm(x, roots, k, slot):
     """1 / sqrt(x), warm-started from roots[k, slot] and stored back there."""
-    y = roots[k, slot]
-    r = 1.0 - x * y * y
-    if abs(r) < WARM:
-        # (1 - r)^(-1/2) = 1 + r/2 + 3r^2/8 + 5r^3/16 + O(r^4)
-        y = y * (1.0 + r * (0.5 + r * (0.375 + r * 0.3125)))
-    else:
-        y = 1.0 / math.sqrt(x)
+    y = rsqrt_next(x, roots[k, slot])
     roots[k, slot] = y
     return y
 
@@ -52,14 +84,7 @@ def rsqrt_warm(x, roots, k, slot):
 def rquart_warm(x, roots, k, slot):
     """x^(-1/4), warm-started from roots[k, slot] and stored back there."""
     y_old = roots[k, slot]
-    y = 2.0 * y_old - roots[k, slot + 10]
-    y2 = y * y
-    r = 1.0 - x * y2 * y2
-    if abs(r) < WARM and y > 0.0:
-        # (1 - r)^(-1/4) = 1 + r/4 + 5r^2/32 + 15r^3/128 + O(r^4)
-        y = y * (1.0 + r * (0.25 + r * (0.15625 + r * 0.1171875)))
-    else:
-        y = 1.0 / math.sqrt(math.sqrt(x))
+    y = rquart_next(x, y_old, roots[k, slot + 10])
     roots[k, slot + 10] = y_old
     roots[k, slot] = y
     return y

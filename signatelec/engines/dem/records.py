@@ -73,6 +73,21 @@ PARAMS = np.dtype(
 )
 
 
+def _param_rows() -> dict[str, int]:
+    """First row of each field of :data:`PARAMS` in the ensemble kernel's parameter array (one
+    row per scalar, fields flattened in record order)."""
+    rows, row = {}, 0
+    for name in PARAMS.names:
+        rows[name] = row
+        row += int(np.prod(PARAMS.fields[name][0].shape, dtype=int))
+    rows["_total"] = row
+    return rows
+
+
+#: Rows of the ensemble kernel's parameters, by field of :data:`PARAMS` ("_total": their count).
+PARAM_ROWS = _param_rows()
+
+
 def new_parameters() -> np.void:
     """A zeroed parameter record (fields by name: ``p["dt_s"] = 1e-7``)."""
     return np.zeros(1, PARAMS)[0]

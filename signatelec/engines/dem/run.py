@@ -360,6 +360,17 @@ def _block_tables(scene: Scene, n_rec: int, rec, electrics: _BlockElectrics | No
     return balls, signals
 
 
+def checked_limit(scene: Scene):
+    """The stability limit of ``scene``; :class:`SceneError` when its dt is above it."""
+    limit = stability_limit(scene)
+    if scene.numerics.dt_s > limit.dt_limit_s:
+        raise SceneError(
+            f"numerics.dt_s = {scene.numerics.dt_s:g}: above the {limit.describe()}; "
+            f"use dt_s <= {limit.dt_limit_s:.3g} s"
+        )
+    return limit
+
+
 def simulate_dem(
     scene: Scene | None = None,
     *,
@@ -378,12 +389,7 @@ def simulate_dem(
     block, returned in memory. The values are the same either way.
     """
     scene = scene or Scene()
-    limit = stability_limit(scene)
-    if scene.numerics.dt_s > limit.dt_limit_s:
-        raise SceneError(
-            f"numerics.dt_s = {scene.numerics.dt_s:g}: above the {limit.describe()}; "
-            f"use dt_s <= {limit.dt_limit_s:.3g} s"
-        )
+    limit = checked_limit(scene)
     spec = KernelSpec.from_scene(scene)
     kern = get_kernel(spec)
     p = kernel_parameters(scene)
@@ -437,21 +443,39 @@ def simulate_dem(
         balls, signals = _block_tables(scene, rec_index, rec, electrics)
     elif rec_index or not flushed:
         stream.write(*_block_tables(scene, rec_index, rec, electrics))
-    timings = {
+    timings = dem_timings(scene, limit, spec.key, compile_s, run_s, run_cpu_s)
+    timings["process_to_first_step_s"] = first_step_s
+    if electrics is not None:
+        electrics.finish(timings, n_total)
+    return SimulationResult(scene, balls, signals, timings, limit)
+
+
+def dem_timings(scene: Scene, limit, kernel: str, compile_s, run_s, run_cpu_s) -> dict:
+    """The timings and chosen settings a DEM run of ``scene`` reports."""
+    n_steps = scene.n_steps
+    return {
         "compile_s": compile_s,
         "run_s": run_s,
         "n_steps": n_steps,
         "us_per_step": 1e6 * run_s / max(n_steps, 1),
         "run_cpu_s": run_cpu_s,
         "cpu_us_per_step": 1e6 * run_cpu_s / max(n_steps, 1),
-        "kernel": spec.key,
+        "kernel": kernel,
         "dt_s": scene.numerics.dt_s,
         "spin_up_time_s": scene.procedure.spin_up_time_s,
         "duration_s": scene.numerics.duration_s,
         "stability_limit_s": limit.dt_limit_s,
         "chosen": sorted(scene.auto),
-        "process_to_first_step_s": first_step_s,
     }
+
+
+def dem_result(scene, rec, rec_index, limit, kernel, compile_s, run_s, run_cpu_s):
+    """The in-memory result of a DEM run of ``scene`` that recorded ``rec_index`` instants of
+    ``rec`` (a :class:`~.records.Recording`, the whole run): its tables, timings and, with the
+    electrical output, the electrical columns (one block of :class:`_BlockElectrics`)."""
+    electrics = _BlockElectrics(scene) if scene.outputs.electrical else None
+    balls, signals = _block_tables(scene, rec_index, rec, electrics)
+    timings = dem_timings(scene, limit, kernel, compile_s, run_s, run_cpu_s)
     if electrics is not None:
-        electrics.finish(timings, n_total)
+        electrics.finish(timings, rec_index)
     return SimulationResult(scene, balls, signals, timings, limit)

@@ -1,0 +1,599 @@
+"""Ensemble DEM kernel: LANES scenes of one KernelSpec advanced in lockstep, one source
+specialised (:mod:`.build`) per KernelSpec (the flags of :mod:`.kernel`), BALLS and LANES.
+
+Every body, contact, parameter (:data:`.records.PARAM_ROWS`) and accumulator of the single-scene
+kernel is a row of LANES float64 values of one flat array ``W``: ``W[row * LANES + lane]``. The
+lane loop is the innermost loop of every contact, its trip count and row offsets compile-time
+constants, one array written: LLVM vectorises it (8 lanes of AVX-512). A contact that opens or
+closes is a select, not a branch. The physics is that of :mod:`.kernel`, in the same order and
+with the same functions (physics.contact, primitives: warm roots, damping, Coulomb limit); the
+schedule, with its cosines, runs per lane from ``PR``, the lanes' parameter records.
+"""
+
+# fmt: off
+# --- kernel spec: build.specialise rewrites this block from a KernelSpec ----------------------
+CAGE_BALLS = True
+CAGE_RIGID = False
+CAGE_NONE = False
+FRICTION_COULOMB = True
+DAMPING_CRITICAL = True
+CONTACT_LAW_LINEAR = False
+TANGENTIAL_SPRING = False
+GRAVITY_STANDARD = True
+CENTRIFUGAL_COMPENSATED = False
+ENERGY = False
+INTEGRATOR_VERLET = True
+DEFECTS_OUTER = False
+DEFECTS_INNER = False
+DEFECTS_BALL = False
+UNBALANCE = False
+LOAD_TABLE = False
+OUT_OF_ROUND = False
+BALLS = 13
+LANES = 8
+# --- end of kernel spec -----------------------------------------------------------------------
+# fmt: on
+
+import math
+
+from numba import njit
+
+from signatelec.engines.dem.primitives import (
+    FASTMATH,
+    coulomb_limit,
+    damped_normal_force,
+    inline,
+    rquart_next,
+    rsqrt_next,
+    schedule,
+)
+from signatelec.engines.dem.records import (
+    NONFINITE,
+    OK,
+    OVERLAP,
+    PARAM_ROWS,
+    R_INNER,
+    R_OUTER,
+    R_SIDE0,
+    R_SIDE1,
+    R_WALL,
+)
+from signatelec.physics import contact as _contact
+
+hertz_elastic_energy = inline(_contact.hertz_elastic_energy)
+linear_normal_force = inline(_contact.linear_normal_force)
+linear_elastic_energy = inline(_contact.linear_elastic_energy)
+tangential_force = inline(_contact.tangential_force)
+_entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
+
+# --- rows of W (module constants: numba compiles them in) -------------------------------------
+NB = 2 * BALLS + 1  # bodies
+N2 = 2 * NB  # body coordinates
+RING = 2 * BALLS  # the inner ring's body
+POS = PARAM_ROWS["_total"]  # the parameters first
+VEL = POS + N2
+ACC = VEL + N2
+ACC_NEW = ACC + N2
+SPIN = ACC_NEW + N2
+SPIN_ACC = SPIN + BALLS
+SPIN_OLD = SPIN_ACC + BALLS
+XI = SPIN_OLD + BALLS  # 4 per ball, as State.xi
+ROOTS = XI + 4 * BALLS  # 20 per ball, as State.roots
+FCON = ROOTS + 20 * BALLS  # 6 per ball, as State.fcon
+SCHED = FCON + 6 * BALLS  # 4, as State.sched
+ENERGY_ROW = SCHED + 4  # 4, as State.energy
+STATUS = ENERGY_ROW + 4  # 4, as State.status (as floats)
+FLAG = STATUS + 4  # 3: this step's overlap flag (code, body, kind)
+RATE = FLAG + 3  # the outer race radius' rate
+# accumulators of one force evaluation
+RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC = range(RATE + 1, RATE + 7)
+ROWS = ELASTIC + 1
+#: Rows of one recorded instant: time, positions and velocities, spins, contact forces,
+#: schedule, energy (kinetic in the last).
+REC_TIME = 0
+REC_POS = 1
+REC_SPIN = REC_POS + 2 * N2
+REC_FCON = REC_SPIN + BALLS
+REC_SCHED = REC_FCON + 6 * BALLS
+REC_ENERGY = REC_SCHED + 4
+REC_ROWS = REC_ENERGY + 4
+# --- rows of the parameters in W (records.PARAM_ROWS) ---------------------------------------
+P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT = (
+    PARAM_ROWS[name]
+    for name in (
+        "dt_s", "ball_radius_m", "cage_ball_radius_m", "inner_race_radius_m", "pitch_radius_m",
+        "ball_mass_kg", "ball_inertia_kg_m2", "cage_ball_mass_kg", "inner_ring_mass_kg",
+        "gravity_m_s2", "friction_coefficient", "max_overlap_fraction",
+    )
+)  # fmt: skip
+P_NCOEF = PARAM_ROWS["normal_coefficient"]  # 6 rows each, by contact type; then 2 by raceway
+P_NDAMP, P_TSTIFF, P_TDAMP = (
+    PARAM_ROWS[f"{name}_factor"]
+    for name in ("normal_damping", "tangential_stiffness", "tangential_damping")
+)
+#: The forces of step n are evaluated at (n + 1) dt (Verlet) or n dt (symplectic Euler).
+T_SHIFT = 1 if INTEGRATOR_VERLET else 0
+
+
+@inline
+def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, root_row):
+    """:func:`.kernel.normal_contact` for one lane, masked by ``inside`` (the contact is open):
+    (normal force, sqrt(delta), delta^{1/4}, damping loss, elastic energy), zeros when closed.
+    The warm roots at ``root_row`` change only where the single-scene kernel changes them (a
+    select: in a vector loop both the warm step and the cold root are computed)."""
+    over = inside and overlap > limit_m  # selects, not a branch: the loop stays vectorised
+    W[FLAG * LANES + lane] = OVERLAP if over else W[FLAG * LANES + lane]
+    W[(FLAG + 1) * LANES + lane] = body if over else W[(FLAG + 1) * LANES + lane]
+    W[(FLAG + 2) * LANES + lane] = kind if over else W[(FLAG + 2) * LANES + lane]
+    touch = inside
+    if not CONTACT_LAW_LINEAR:
+        touch = inside and overlap > 0.0
+    coef = W[(P_NCOEF + kind) * LANES + lane]
+    root = 1.0
+    quarter = 1.0
+    if CONTACT_LAW_LINEAR:
+        fe = linear_normal_force(overlap, coef)
+    else:
+        at = root_row * LANES + lane
+        y_old = W[at]
+        if DAMPING_CRITICAL:
+            y_older = W[at + 10 * LANES]
+            y = rquart_next(overlap, y_old, y_older)
+            W[at + 10 * LANES] = y_old if touch else y_older
+            W[at] = y if touch else y_old
+            quarter = overlap * y * y * y
+            root = quarter * quarter
+        else:
+            y = rsqrt_next(overlap, y_old)
+            W[at] = y if touch else y_old
+            root = overlap * y
+        fe = coef * overlap * root
+    if DAMPING_CRITICAL:
+        fn = damped_normal_force(fe, W[(P_NDAMP + kind) * LANES + lane] * quarter, closing_speed)
+    else:
+        fn = max(fe, 0.0)
+    loss = 0.0
+    elastic = 0.0
+    if ENERGY:
+        loss = (fn - fe) * closing_speed * W[P_DT * LANES + lane]
+        if CONTACT_LAW_LINEAR:
+            elastic = linear_elastic_energy(overlap, coef)
+        else:
+            elastic = hertz_elastic_energy(overlap, coef)
+        loss = loss if touch else 0.0
+        elastic = elastic if inside else 0.0
+    if not touch:
+        return 0.0, 0.0, 0.0, loss, elastic
+    return fn, root, quarter, loss, elastic
+
+
+@inline
+def tangential_lane(k, side, root, quarter, slip_speed, fn, W, lane, inside):
+    """:func:`.kernel.tangential_law` for one lane; the spring's state changes only ``inside``."""
+    dt = W[P_DT * LANES + lane]
+    if CONTACT_LAW_LINEAR:
+        kt = W[(P_TSTIFF + side) * LANES + lane]
+    else:
+        kt = W[(P_TSTIFF + side) * LANES + lane] * root
+    ct = 0.0
+    if DAMPING_CRITICAL:
+        ct = W[(P_TDAMP + side) * LANES + lane] * quarter
+    if TANGENTIAL_SPRING:
+        at = (XI + 4 * k + side) * LANES + lane
+        disp = W[at] + 0.5 * (W[at + 2 * LANES] + slip_speed) * dt
+        W[at + 2 * LANES] = slip_speed if inside else 0.0
+    else:
+        disp = slip_speed * dt
+    ft = coulomb_limit(tangential_force(kt, disp, ct, slip_speed), fn, W[P_MU * LANES + lane])
+    if TANGENTIAL_SPRING:
+        kept = 0.0
+        if kt > 0.0:
+            kept = -(ft + ct * slip_speed) / kt
+        W[at] = kept if inside else 0.0
+    return ft
+
+
+@_entry
+def forces(step, PR, W):
+    """The new accelerations (rows ACC_NEW, SPIN_ACC) of every lane at its time (step + T_SHIFT)
+    dt; also the contact forces, schedule, roots, springs, energy and this step's FLAG."""
+    for lane in range(LANES):
+        p = PR[lane]
+        dt = W[P_DT * LANES + lane]
+        r_out, r_rate, fr, omega = schedule((step + T_SHIFT) * dt, p)
+        W[SCHED * LANES + lane] = r_out
+        W[(SCHED + 1) * LANES + lane] = fr
+        W[(SCHED + 2) * LANES + lane] = omega
+        W[RATE * LANES + lane] = r_rate
+        W[FLAG * LANES + lane] = OK
+        g = p.gravity_m_s2 if GRAVITY_STANDARD else 0.0
+        W[RING_FX * LANES + lane] = 0.0
+        W[RING_FY * LANES + lane] = -fr - p.inner_ring_mass_kg * g
+        W[DRIVE * LANES + lane] = 0.0
+        W[LOSS * LANES + lane] = 0.0
+        W[ELASTIC * LANES + lane] = 0.0
+        work = 0.0
+        if ENERGY:
+            vel_y = W[(VEL + 2 * RING + 1) * LANES + lane]
+            work += -fr * vel_y * dt
+            if GRAVITY_STANDARD:
+                wsum = p.inner_ring_mass_kg * vel_y
+                for k in range(BALLS):
+                    wsum += (
+                        p.ball_mass_kg * W[(VEL + 2 * k + 1) * LANES + lane]
+                        + p.cage_ball_mass_kg * W[(VEL + 2 * (BALLS + k) + 1) * LANES + lane]
+                    )
+                work += -g * wsum * dt
+        W[WORK * LANES + lane] = work
+    if not CAGE_BALLS:
+        for i in range(2 * BALLS * LANES, 4 * BALLS * LANES):
+            W[ACC_NEW * LANES + i] = 0.0
+    for k in range(BALLS):
+        _ball_lanes(k, W)
+    if CAGE_BALLS:
+        for j in range(BALLS):
+            _cage_ball_lanes(j, W)
+    if CAGE_NONE:
+        for k in range(BALLS):  # ball k + 1 on ball k
+            m = k + 1 if k + 1 < BALLS else 0
+            _pair_lanes(m, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W)
+    for k in range(BALLS):
+        for lane in range(LANES):
+            inv_mb = 1.0 / W[P_MB * LANES + lane]
+            W[(ACC_NEW + 2 * k) * LANES + lane] *= inv_mb
+            W[(ACC_NEW + 2 * k + 1) * LANES + lane] *= inv_mb
+    for lane in range(LANES):
+        mi = W[P_MI * LANES + lane]
+        W[(ACC_NEW + 2 * RING) * LANES + lane] = W[RING_FX * LANES + lane] / mi
+        W[(ACC_NEW + 2 * RING + 1) * LANES + lane] = W[RING_FY * LANES + lane] / mi
+        drive = W[DRIVE * LANES + lane]
+        W[(SCHED + 3) * LANES + lane] = drive
+        if ENERGY:
+            omega = W[(SCHED + 2) * LANES + lane]
+            dt = W[P_DT * LANES + lane]
+            e = ENERGY_ROW * LANES + lane
+            W[e] += W[WORK * LANES + lane] + drive * omega * dt
+            W[e + LANES] += W[LOSS * LANES + lane]
+            W[e + 2 * LANES] = W[ELASTIC * LANES + lane]
+
+
+@inline
+def _ball_lanes(k, W):
+    """Ball k on its raceways, every lane: its force (into ACC_NEW), spin acceleration, the
+    inner ring's reaction and the drive torque (:func:`.kernel.forces`, ball loop)."""
+    bx = (POS + 2 * k) * LANES
+    ring = (POS + 2 * RING) * LANES
+    vb = (VEL + 2 * k) * LANES
+    vr = (VEL + 2 * RING) * LANES
+    root = (ROOTS + 20 * k) * LANES
+    fc = (FCON + 6 * k) * LANES
+    for lane in range(LANES):
+        dt = W[P_DT * LANES + lane]
+        rb = W[P_RB * LANES + lane]
+        rin = W[P_RIN * LANES + lane]
+        mb = W[P_MB * LANES + lane]
+        g = W[P_G * LANES + lane] if GRAVITY_STANDARD else 0.0
+        ball_limit = W[P_LIMIT * LANES + lane] * rb
+        omega = W[(SCHED + 2) * LANES + lane]
+        r_out = W[SCHED * LANES + lane]
+        r_rate = W[RATE * LANES + lane]
+        spin = W[(SPIN + k) * LANES + lane]
+        x = W[bx + lane]
+        y = W[bx + LANES + lane]
+        vx = W[vb + lane]
+        vy = W[vb + LANES + lane]
+        ball_fx = 0.0
+        ball_fy = -mb * g
+        torque = 0.0
+        loss = W[LOSS * LANES + lane]
+        elastic = W[ELASTIC * LANES + lane]
+        work = W[WORK * LANES + lane]
+        # --- ball / inner raceway
+        dx = x - W[ring + lane]
+        dy = y - W[ring + LANES + lane]
+        d2 = dx * dx + dy * dy
+        reach = rin + rb
+        inside = d2 < reach * reach
+        at = root + R_INNER * LANES + lane
+        inv_old = W[at]
+        inv = rsqrt_next(d2, inv_old)
+        W[at] = inv if inside else inv_old
+        nx = dx * inv
+        ny = dy * inv
+        rvx = vx - W[vr + lane]
+        rvy = vy - W[vr + LANES + lane]
+        vclose = -(rvx * nx + rvy * ny)
+        ov = reach - d2 * inv
+        fn, rd, qd, dloss, de = normal_lane(
+            ov, vclose, 0, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_INNER + 1
+        )
+        loss += dloss
+        elastic += de
+        fx = fn * nx
+        fy = fn * ny
+        ft = 0.0
+        if FRICTION_COULOMB:
+            vt = -rvx * ny + rvy * nx - spin * rb - omega * rin
+            ft = tangential_lane(k, 0, rd, qd, vt, fn, W, lane, inside)
+            ft = ft if inside else 0.0
+            fx += -ft * ny
+            fy += ft * nx
+            torque -= rb * ft
+            W[DRIVE * LANES + lane] += rin * ft
+            if ENERGY:
+                loss += -ft * vt * dt if inside else 0.0
+        fx = fx if inside else 0.0
+        fy = fy if inside else 0.0
+        ball_fx += fx
+        ball_fy += fy
+        W[RING_FX * LANES + lane] -= fx
+        W[RING_FY * LANES + lane] -= fy
+        W[fc + lane] = fn
+        W[fc + 2 * LANES + lane] = ft
+        # --- ball / outer raceway
+        r2 = x * x + y * y
+        inside_r = r_out - rb
+        inside = r2 > inside_r * inside_r
+        at = root + R_OUTER * LANES + lane
+        inv_old = W[at]
+        inv = rsqrt_next(r2, inv_old)
+        W[at] = inv if (inside or CENTRIFUGAL_COMPENSATED) else inv_old
+        r = r2 * inv
+        nx = x * inv
+        ny = y * inv
+        if CENTRIFUGAL_COMPENSATED:
+            vtan = -vx * ny + vy * nx
+            fcp = mb * vtan * vtan / r
+            ball_fx -= fcp * nx
+            ball_fy -= fcp * ny
+            if ENERGY:
+                work += -fcp * (vx * nx + vy * ny) * dt
+        vclose = vx * nx + vy * ny - r_rate
+        ov = r + rb - r_out
+        fn, rd, qd, dloss, de = normal_lane(
+            ov, vclose, 1, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_OUTER + 1
+        )
+        loss += dloss
+        elastic += de
+        fx = -fn * nx
+        fy = -fn * ny
+        ft = 0.0
+        if FRICTION_COULOMB:
+            vt = -vx * ny + vy * nx + spin * rb
+            ft = tangential_lane(k, 1, rd, qd, vt, fn, W, lane, inside)
+            ft = ft if inside else 0.0
+            fx += -ft * ny
+            fy += ft * nx
+            torque += rb * ft
+            if ENERGY:
+                loss += -ft * vt * dt if inside else 0.0
+        ball_fx = ball_fx + fx if inside else ball_fx
+        ball_fy = ball_fy + fy if inside else ball_fy
+        W[fc + LANES + lane] = fn
+        W[fc + 3 * LANES + lane] = ft
+        if ENERGY:
+            work += -fn * r_rate * dt
+            W[LOSS * LANES + lane] = loss
+            W[ELASTIC * LANES + lane] = elastic
+            W[WORK * LANES + lane] = work
+        W[(ACC_NEW + 2 * k) * LANES + lane] = ball_fx
+        W[(ACC_NEW + 2 * k + 1) * LANES + lane] = ball_fy
+        W[(SPIN_ACC + k) * LANES + lane] = torque * (1.0 / W[P_IB * LANES + lane])
+
+
+@inline
+def _cage_ball_lanes(j, W):
+    """Cage ball j on its boundaries and on balls j and j + 1, every lane (frictionless); one
+    lane loop per contact, so that each is innermost (and vectorised)."""
+    c = BALLS + j
+    cx_at = (POS + 2 * c) * LANES
+    vc = (VEL + 2 * c) * LANES
+    at_wall = (ROOTS + 20 * j + R_WALL) * LANES
+    for lane in range(LANES):
+        rc = W[P_RC * LANES + lane]
+        rp = W[P_RP * LANES + lane]
+        g = W[P_G * LANES + lane] if GRAVITY_STANDARD else 0.0
+        cx = W[cx_at + lane]
+        cy = W[cx_at + LANES + lane]
+        cage_fx = 0.0
+        cage_fy = -W[P_MC * LANES + lane] * g
+        # cage ball / its two boundaries at r_p -+ r_c (table 2 "cage/cage")
+        r2 = cx * cx + cy * cy
+        inv = rsqrt_next(r2, W[at_wall + lane])
+        W[at_wall + lane] = inv
+        nx = cx * inv
+        ny = cy * inv
+        ov = r2 * inv - rp
+        on = ov != 0.0
+        sgn = 1.0 if ov > 0.0 else -1.0
+        vclose = sgn * (W[vc + lane] * nx + W[vc + LANES + lane] * ny)
+        fn, rd, qd, dloss, de = normal_lane(
+            abs(ov), vclose, 3, W[P_LIMIT * LANES + lane] * rc, c, on, W, lane,
+            ROOTS + 20 * j + R_WALL + 1,
+        )  # fmt: skip
+        if ENERGY:
+            W[LOSS * LANES + lane] += dloss
+            W[ELASTIC * LANES + lane] += de
+        W[(ACC_NEW + 2 * c) * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
+        W[(ACC_NEW + 2 * c + 1) * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
+    # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
+    root = ROOTS + 20 * j
+    _pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W)
+    _pair_lanes(c, j + 1 if j + 1 < BALLS else 0, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W)
+    for lane in range(LANES):
+        inv_mc = 1.0 / W[P_MC * LANES + lane]
+        W[(ACC_NEW + 2 * c) * LANES + lane] *= inv_mc
+        W[(ACC_NEW + 2 * c + 1) * LANES + lane] *= inv_mc
+
+
+@inline
+def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W):
+    """Body a (cage ball or ball, radius at ``radius_row``) on ball b, frictionless, every
+    lane: the force on a added to its row of ACC_NEW, its opposite to b's (a cage ball on a
+    ball, or ball k + 1 on ball k without a cage)."""
+    for lane in range(LANES):
+        radius = W[radius_row * LANES + lane]
+        reach = W[P_RB * LANES + lane] + radius
+        dx = W[(POS + 2 * a) * LANES + lane] - W[(POS + 2 * b) * LANES + lane]
+        dy = W[(POS + 2 * a + 1) * LANES + lane] - W[(POS + 2 * b + 1) * LANES + lane]
+        d2 = dx * dx + dy * dy
+        inside = d2 < reach * reach
+        at = root_row * LANES + lane
+        inv_old = W[at]
+        inv = rsqrt_next(d2, inv_old)
+        W[at] = inv if inside else inv_old
+        nx = dx * inv
+        ny = dy * inv
+        rvx = W[(VEL + 2 * a) * LANES + lane] - W[(VEL + 2 * b) * LANES + lane]
+        rvy = W[(VEL + 2 * a + 1) * LANES + lane] - W[(VEL + 2 * b + 1) * LANES + lane]
+        vclose = -(rvx * nx + rvy * ny)
+        fn, rd, qd, dloss, de = normal_lane(
+            reach - d2 * inv, vclose, kind, W[P_LIMIT * LANES + lane] * radius, body, inside, W,
+            lane, root_row + 1,
+        )  # fmt: skip
+        if ENERGY:
+            W[LOSS * LANES + lane] += dloss
+            W[ELASTIC * LANES + lane] += de
+        fx = fn * nx if inside else 0.0
+        fy = fn * ny if inside else 0.0
+        W[(ACC_NEW + 2 * a) * LANES + lane] += fx
+        W[(ACC_NEW + 2 * a + 1) * LANES + lane] += fy
+        W[(ACC_NEW + 2 * b) * LANES + lane] -= fx
+        W[(ACC_NEW + 2 * b + 1) * LANES + lane] -= fy
+        W[fcon_row * LANES + lane] = fn
+
+
+@njit(error_model="numpy", _nrt=False)
+def record(W, rec, i, step):
+    """Copy every lane's state into recorded instant ``i`` (rows REC_*) after ``step``."""
+    for lane in range(LANES):
+        rec[i, REC_TIME * LANES + lane] = (step + 1) * W[P_DT * LANES + lane]
+    for r in range(2 * N2 * LANES):  # positions then velocities
+        rec[i, REC_POS * LANES + r] = W[POS * LANES + r]
+    for r in range(BALLS * LANES):
+        rec[i, REC_SPIN * LANES + r] = W[SPIN * LANES + r]
+    for r in range(6 * BALLS * LANES):
+        rec[i, REC_FCON * LANES + r] = W[FCON * LANES + r]
+    for r in range(4 * LANES):
+        rec[i, REC_SCHED * LANES + r] = W[SCHED * LANES + r]
+    if ENERGY:
+        for r in range(3 * LANES):
+            rec[i, REC_ENERGY * LANES + r] = W[ENERGY_ROW * LANES + r]
+        for lane in range(LANES):
+            rec[i, (REC_ENERGY + 3) * LANES + lane] = _kinetic_energy(W, lane)
+
+
+@njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
+def _kinetic_energy(W, lane):
+    """:func:`.primitives.kinetic_energy` of one lane (its rigid-cage terms are 0 here), J."""
+    mb = W[P_MB * LANES + lane]
+    ib = W[P_IB * LANES + lane]
+    mc = W[P_MC * LANES + lane]
+    v = VEL * LANES + lane
+    ring = W[v + 2 * RING * LANES] ** 2 + W[v + (2 * RING + 1) * LANES] ** 2
+    e = 0.5 * W[P_MI * LANES + lane] * ring
+    for k in range(BALLS):
+        e += 0.5 * mb * (W[v + 2 * k * LANES] ** 2 + W[v + (2 * k + 1) * LANES] ** 2)
+        e += 0.5 * ib * W[(SPIN + k) * LANES + lane] ** 2
+        c = BALLS + k
+        e += 0.5 * mc * (W[v + 2 * c * LANES] ** 2 + W[v + (2 * c + 1) * LANES] ** 2)
+    return e
+
+
+# No fastmath: under its flags LLVM folds math.isfinite(x) to True.
+@njit(error_model="numpy", _nrt=False)
+def _check_finite(W, step):
+    """Flag (status NONFINITE) each lane, still OK, whose positions or velocities are not finite."""
+    for lane in range(LANES):
+        if W[STATUS * LANES + lane] != OK:
+            continue
+        for b in range(NB):
+            x = W[(POS + 2 * b) * LANES + lane] + W[(POS + 2 * b + 1) * LANES + lane]
+            v = W[(VEL + 2 * b) * LANES + lane] + W[(VEL + 2 * b + 1) * LANES + lane]
+            if not math.isfinite(x + v):
+                W[STATUS * LANES + lane] = NONFINITE
+                W[(STATUS + 1) * LANES + lane] = step
+                W[(STATUS + 2) * LANES + lane] = b
+                W[(STATUS + 3) * LANES + lane] = -1
+                break
+
+
+# No fastmath in the time loop (as kernel.run: the divergence check must see an overflow).
+@njit(cache=True, error_model="numpy", _nrt=False)
+def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
+    """Advance every lane of ``W`` by ``n_steps`` from step ``step0`` (:func:`.kernel.run`, lane
+    by lane); record into ``rec`` from index ``rec_index0`` every ``record_every`` steps.
+
+    Returns the next free record index. A lane that diverges keeps its first status (the lanes
+    are independent: its values reach no other lane) and runs on; the run stops when every
+    lane has diverged."""
+    rec_index = rec_index0
+    countdown = record_every - step0 % record_every
+    for i_step in range(n_steps):
+        step = step0 + i_step
+        if INTEGRATOR_VERLET:
+            for r in range(N2):
+                for lane in range(LANES):
+                    dt = W[P_DT * LANES + lane]
+                    a = W[(ACC + r) * LANES + lane]
+                    v = W[(VEL + r) * LANES + lane]
+                    W[(POS + r) * LANES + lane] += v * dt + a * (0.5 * dt * dt)
+                    W[(VEL + r) * LANES + lane] += a * dt
+            for r in range(BALLS * LANES):
+                dt = W[P_DT * LANES + r % LANES]
+                W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * dt
+                W[SPIN_OLD * LANES + r] = W[SPIN_ACC * LANES + r]
+        forces(step, PR, W)
+        if INTEGRATOR_VERLET:
+            for r in range(N2):
+                for lane in range(LANES):
+                    dt = W[P_DT * LANES + lane]
+                    a_new = W[(ACC_NEW + r) * LANES + lane]
+                    W[(VEL + r) * LANES + lane] += 0.5 * (a_new - W[(ACC + r) * LANES + lane]) * dt
+                    W[(ACC + r) * LANES + lane] = a_new
+            for r in range(BALLS * LANES):
+                dt = W[P_DT * LANES + r % LANES]
+                W[SPIN * LANES + r] += (
+                    0.5 * (W[SPIN_ACC * LANES + r] - W[SPIN_OLD * LANES + r]) * dt
+                )
+        else:
+            for r in range(N2):
+                for lane in range(LANES):
+                    dt = W[P_DT * LANES + lane]
+                    a_new = W[(ACC_NEW + r) * LANES + lane]
+                    W[(ACC + r) * LANES + lane] = a_new
+                    W[(VEL + r) * LANES + lane] += a_new * dt
+                    W[(POS + r) * LANES + lane] += W[(VEL + r) * LANES + lane] * dt
+            for r in range(BALLS * LANES):
+                dt = W[P_DT * LANES + r % LANES]
+                W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * dt
+        running = 0
+        for lane in range(LANES):
+            if W[STATUS * LANES + lane] == OK:
+                if W[FLAG * LANES + lane] != OK:
+                    W[STATUS * LANES + lane] = W[FLAG * LANES + lane]
+                    W[(STATUS + 1) * LANES + lane] = step
+                    W[(STATUS + 2) * LANES + lane] = W[(FLAG + 1) * LANES + lane]
+                    W[(STATUS + 3) * LANES + lane] = W[(FLAG + 2) * LANES + lane]
+                else:
+                    running += 1
+        if running == 0:
+            return rec_index
+        countdown -= 1
+        if countdown == 0:
+            countdown = record_every
+            _check_finite(W, step)
+            if rec_index < rec.shape[0]:
+                record(W, rec, rec_index, step)
+                rec_index += 1
+    return rec_index
+
+
+@_entry
+def start(PR, W):
+    """Initial accelerations at t = 0 of every lane (needed by velocity Verlet)."""
+    forces(-T_SHIFT, PR, W)
+    for r in range(N2 * LANES):
+        W[ACC * LANES + r] = W[ACC_NEW * LANES + r]
+    for r in range(2 * LANES):
+        W[ENERGY_ROW * LANES + r] = 0.0
