@@ -264,6 +264,12 @@ _FACTOR_NUMBERS = {
     "epsilon": ([0.3, 0.5, 0.6], [0.0, 25.0]),
     "omega_rad_s": ([250.0, 500.0, 0.0], [-5.0, 1e9]),
     "initial_ball_angle_rad": ([0.0, 0.4, -3.0], [1e6]),
+    "condition": (["healthy", "outer", "ball", "unbalance"], ["rusty", 2.0]),
+    "spall_length_m": ([0.5e-3, 1.5e-3], [-1e-3, 1.0]),
+    "spall_depth_m": ([20e-6, 50e-6], [0.0, 1.0]),
+    "spall_angle_rad": ([0.0, 0.5], [1e6]),
+    "unbalance_force_n": ([0.0, 500.0], [-1.0, 1e9]),
+    "unbalance_phase_rad": ([0.0, 1.0], [1e6]),
 }
 
 

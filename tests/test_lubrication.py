@@ -30,7 +30,7 @@ from signatelec.physics.lubricated_contact import (
 
 LUBRICATED = {"effects": {"lubrication": True}, "numerics": {"fidelity": "quasistatic"}}
 FILM_COLUMNS = {
-    "signals": ["capacitance_f", "impedance_ohm", "impedance_phase_rad"],
+    "signals": ["capacitance_f", "impedance_ohm", "impedance_phase_rad", "film_parameter_min"],
     "balls": [
         "inner_film_m",
         "outer_film_m",

@@ -329,7 +329,7 @@ def run_traces(ctx: TraceContext, tasks: list[TraceTask]) -> list[dict]:
         try:
             with warnings.catch_warnings(record=True) as caught[i]:
                 warnings.simplefilter("always")
-                ready.append((i, *_trace_scene(ctx, rec)))
+                ready.append((i, *_trace_scene(ctx, tasks[i], rec)))
         except _TRACE_ERRORS as exc:
             _failed(rec, exc)
     with warnings.catch_warnings(record=True) as shared:

@@ -102,7 +102,8 @@ def stability_limit(scene) -> StabilityLimit:
     mb, mc = b.ball_mass_kg, b.cage_ball_mass_kg
     fc = mb * b.cage_speed_rad_s(scene.operating.omega_rad_s) ** 2 * b.pitch_radius_m
     q_pre = preload_ball_force_n(coef, n, scene.operating.clearance_m)
-    fs = 2.0 * (scene.operating.radial_load_n + q_pre) + fc + 1.0
+    # a negative load is refused by validation; its limit is never used (no complex roots)
+    fs = max(2.0 * (scene.operating.radial_load_n + q_pre) + fc, 0.0) + 1.0
     f_cage = cage_force_scale_n(scene, fs)
     k = [
         _tangent(coef[i], n, fs if i in (INNER, OUTER, BALL_BALL) else f_cage)
