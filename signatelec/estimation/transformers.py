@@ -89,16 +89,16 @@ class _TraceTransformer(TransformerMixin, BaseEstimator):
         return tags
 
 
-def _twin(name: str, function) -> type[_TraceTransformer]:
-    """The transformer class twin of a feature function."""
+def _twin(name: str, function, base: type | None = None) -> type:
+    """The transformer class twin of a feature function (a subclass of ``base``, by default
+    :class:`_TraceTransformer`)."""
     return type(
         name,
-        (_TraceTransformer,),
+        (base or _TraceTransformer,),
         {
             "__module__": __name__,
             "__qualname__": name,
-            "__doc__": f"Transformer twin of :func:`~signatelec.estimation.features."
-            f"{function.__name__}`.",
+            "__doc__": f"Transformer twin of :func:`~{function.__module__}.{function.__name__}`.",
             "_function": staticmethod(function),
         },
     )
@@ -143,25 +143,10 @@ class _ConditionTransformer(_TraceTransformer):
         return analyse_envelope(row, self.sample_rate_hz, self.omega_rad_s, bearing=self.bearing)
 
 
-def _condition_twin(name: str, function) -> type[_ConditionTransformer]:
-    """The transformer class twin of a condition feature function."""
-    return type(
-        name,
-        (_ConditionTransformer,),
-        {
-            "__module__": __name__,
-            "__qualname__": name,
-            "__doc__": f"Transformer twin of :func:`~signatelec.estimation.condition_features."
-            f"{function.__name__}`.",
-            "_function": staticmethod(function),
-        },
-    )
-
-
-EnvelopeFeatures = _condition_twin("EnvelopeFeatures", envelope_features)
-LineFeatures = _condition_twin("LineFeatures", line_features)
-ImpulseFeatures = _condition_twin("ImpulseFeatures", impulse_features)
-ConditionFeatures = _condition_twin("ConditionFeatures", condition_features)
+EnvelopeFeatures = _twin("EnvelopeFeatures", envelope_features, _ConditionTransformer)
+LineFeatures = _twin("LineFeatures", line_features, _ConditionTransformer)
+ImpulseFeatures = _twin("ImpulseFeatures", impulse_features, _ConditionTransformer)
+ConditionFeatures = _twin("ConditionFeatures", condition_features, _ConditionTransformer)
 
 #: The condition transformers: the groups' in the order of
 #: :data:`~signatelec.estimation.condition_features.CONDITION_GROUPS`, then the one of them all.
