@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import click
 
 from signatelec.cli.common import (
@@ -11,6 +13,26 @@ from signatelec.cli.common import (
     claim_output,
     cli,
 )
+
+
+@contextlib.contextmanager
+def study_output(out: str, name: str, own: tuple[str, ...], kept: str | None = None):
+    """Run a study's body into DIR ``out``: claimed first (it may hold only the study's ``own``
+    files), marked as the study's output when the body ends; a write error stops with one line
+    (exit 75) that says where finished work is ``kept``, when it is."""
+    from signatelec.io import holds_only, write_marker
+
+    command = f"study {name}"
+    previous = lambda d: holds_only(d, own, False)  # noqa: E731
+    claim_output(out, command, previous=previous, replaced=False)
+    try:
+        yield
+        write_marker(out, command)
+    except OSError as exc:
+        resume = f"; {kept}: rerun the same command to resume" if kept else ""
+        raise Stopped(
+            f"--out {out!r}: cannot write there ({exc.strerror or exc}){resume}", EXIT_INCOMPLETE
+        ) from None
 
 
 @cli.group()
@@ -25,23 +47,13 @@ def study() -> None:
 @click.option("--quiet", is_flag=True, help="No progress bar or file list.")
 def accuracy_cost(out, quick, fresh, quiet):
     """Fidelity ladder against a dt = 1e-8 s reference: DIR/accuracy_cost.{parquet,md,png}."""
-    from signatelec.io import holds_only, write_marker
     from signatelec.studies.accuracy_cost import run_study
 
     own = ("accuracy_cost.parquet", "accuracy_cost.md", "accuracy_cost.png", ".cache")
-    previous = lambda d: holds_only(d, own, False)  # noqa: E731
-    claim_output(out, "study accuracy-cost", previous=previous, replaced=False)
-    try:
+    with study_output(out, "accuracy-cost", own, "finished cases are kept in DIR/.cache"):
         run_study(
             out, quick=quick, progress=not quiet, fresh=fresh, log=None if quiet else click.echo
         )
-        write_marker(out, "study accuracy-cost")
-    except OSError as exc:
-        raise Stopped(
-            f"--out {out!r}: cannot write there ({exc.strerror or exc}); finished cases are kept "
-            "in DIR/.cache: rerun the same command to resume",
-            EXIT_INCOMPLETE,
-        ) from None
 
 
 @study.command("operating-map")
@@ -74,12 +86,9 @@ def operating_map(out, quick, cages, fresh, cached_only, quiet):
     for cage in cages:
         if not option.accepts(cage):
             raise InputError(f"--cage {cage!r}: {option.rule}")
-    from signatelec.io import holds_only, write_marker
 
     own = ("operating_map.parquet", "operating_map.md", "operating_map.png", ".cache")
-    previous = lambda d: holds_only(d, own, False)  # noqa: E731
-    claim_output(out, "study operating-map", previous=previous, replaced=False)
-    try:
+    with study_output(out, "operating-map", own, "finished cells are kept in DIR/.cache"):
         paths = run_study(
             out,
             quick=quick,
@@ -88,13 +97,6 @@ def operating_map(out, quick, cages, fresh, cached_only, quiet):
             cached_only=cached_only,
             log=None if quiet else click.echo,
         )
-        write_marker(out, "study operating-map")
-    except OSError as exc:
-        raise Stopped(
-            f"--out {out!r}: cannot write there ({exc.strerror or exc}); finished cells are kept "
-            "in DIR/.cache: rerun the same command to resume",
-            EXIT_INCOMPLETE,
-        ) from None
     if not quiet:
         for path in paths.values():
             click.echo(f"wrote {path}")
@@ -107,7 +109,6 @@ def operating_map(out, quick, cages, fresh, cached_only, quiet):
 def lubrication_regimes(out, quick, quiet):
     """Lambda, |Z| and phase of the lubricated seed bearing over speed, load and oil temperature:
     DIR/lubrication_regimes.{parquet,md,png}."""
-    from signatelec.io import holds_only, write_marker
     from signatelec.studies.lubrication_regimes import run_study
 
     own = (
@@ -116,15 +117,8 @@ def lubrication_regimes(out, quick, quiet):
         "lubrication_regimes.png",
         "bode.png",
     )
-    previous = lambda d: holds_only(d, own, False)  # noqa: E731
-    claim_output(out, "study lubrication-regimes", previous=previous, replaced=False)
-    try:
+    with study_output(out, "lubrication-regimes", own):
         paths = run_study(out, quick=quick, log=None if quiet else click.echo)
-        write_marker(out, "study lubrication-regimes")
-    except OSError as exc:
-        raise Stopped(
-            f"--out {out!r}: cannot write there ({exc.strerror or exc})", EXIT_INCOMPLETE
-        ) from None
     if not quiet:
         for path in paths.values():
             click.echo(f"wrote {path}")
@@ -145,7 +139,6 @@ def lubrication_regimes(out, quick, quiet):
 def monitor_study(out, bank_dir, quick, quiet):
     """Monitoring on long records assembled from paper-fidelity DEM runs, and its throughput
     and memory at 1, 10 and 60 minutes of 50 kHz trace: DIR/monitor.md, parquet tables, PNG."""
-    from signatelec.io import holds_only, write_marker
     from signatelec.studies.monitor import run_study
 
     own = (
@@ -155,17 +148,8 @@ def monitor_study(out, bank_dir, quick, quiet):
         "monitor_changes.parquet",
         "monitor_throughput.parquet",
     )
-    previous = lambda d: holds_only(d, own, False)  # noqa: E731
-    claim_output(out, "study monitor", previous=previous, replaced=False)
-    try:
+    with study_output(out, "monitor", own, f"the DEM runs are kept in {bank_dir}"):
         paths = run_study(out, bank_dir, quick=quick, log=None if quiet else click.echo)
-        write_marker(out, "study monitor")
-    except OSError as exc:
-        raise Stopped(
-            f"--out {out!r}: cannot write there ({exc.strerror or exc}); the DEM runs are kept "
-            f"in {bank_dir}: rerun the same command to resume",
-            EXIT_INCOMPLETE,
-        ) from None
     if not quiet:
         for path in paths.values():
             click.echo(f"wrote {path}")
@@ -187,15 +171,12 @@ def diagnosis(out, quick, fresh, workers, quiet):
     DIR/signatures.png; the runs are cached in DIR/.cache (an interrupted study resumes)."""
     from pathlib import Path
 
-    from signatelec.io import holds_only, write_marker
     from signatelec.studies.diagnosis import DEFAULT_SPEC, run_study
 
     if workers < 0:
         raise InputError(f"--workers {workers}: must be >= 0")
     own = ("diagnosis.parquet", "diagnosis.md", "diagnosis.png", "signatures.png", ".cache")
-    previous = lambda d: holds_only(d, own, False)  # noqa: E731
-    claim_output(out, "study diagnosis", previous=previous, replaced=False)
-    try:
+    with study_output(out, "diagnosis", own, "finished runs are kept in DIR/.cache"):
         run_study(
             Path(out) / ".cache",
             Path(out),
@@ -205,13 +186,6 @@ def diagnosis(out, quick, fresh, workers, quiet):
             workers=workers,
             log=(lambda m: None) if quiet else click.echo,
         )
-        write_marker(out, "study diagnosis")
-    except OSError as exc:
-        raise Stopped(
-            f"--out {out!r}: cannot write there ({exc.strerror or exc}); finished runs are kept "
-            "in DIR/.cache: rerun the same command to resume",
-            EXIT_INCOMPLETE,
-        ) from None
     if not quiet:
         for name in own[:-1]:
             click.echo(f"wrote {Path(out) / name}")
