@@ -21,6 +21,7 @@ from signatelec.config.catalogue import (
     catalogue_entry,
     list_bearings,
 )
+from signatelec.physics.kinematics import characteristic_orders
 from signatelec.physics.quasistatic import ball_angles_rad, solve_equilibrium
 
 DESIGNATIONS = list(CATALOGUE)
@@ -215,3 +216,77 @@ def test_list_bearings_is_a_table_with_sources_and_orders():
     # BPFO + BPFI = Z orders for every entry (each ball passes both races once per relative turn)
     total = table["bpfo_order"] + table["bpfi_order"]
     np.testing.assert_allclose(total, table["n_balls"].astype(float), rtol=1e-14)
+
+
+# Published rows, SI units: (d, D_o, B) m, C_r and C_0r N, reference and limiting speed r/min, mass
+# kg. SKF, Rolling bearings, PUB BU/P1 17000/1 EN (2018), product table 1.1, rows 6203 and 6205
+# ("17 40 12 9,95 4,75 0,2 38 000 24 000 0,065 * 6203", "25 52 15 14,8 7,8 0,335 28 000 18 000
+# 0,13 * 6205"; docs/catalogue_sources.md gives where each was read).
+SKF_2018_ROWS = {
+    "6203": ((17e-3, 40e-3, 12e-3), 9950.0, 4750.0, 38000.0, 24000.0, 0.065),
+    "6205": ((25e-3, 52e-3, 15e-3), 14800.0, 7800.0, 28000.0, 18000.0, 0.13),
+}
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("designation", SKF_2018_ROWS)
+def test_skf_catalogue_rows_of_the_cwru_bearings(designation):
+    # The catalogue states the published values themselves: equal up to the kN -> N conversion.
+    dims_m, c_n, c0_n, ref_rpm, lim_rpm, mass_kg = SKF_2018_ROWS[designation]
+    e = catalogue_entry(designation)
+    got = (e.bore_diameter_m, e.outside_diameter_m, e.width_m)
+    assert got == pytest.approx(dims_m, rel=1e-12)
+    assert e.dynamic_load_rating_n == pytest.approx(c_n, rel=1e-12)
+    assert e.static_load_rating_n == pytest.approx(c0_n, rel=1e-12)
+    assert (e.reference_speed_rpm, e.limiting_speed_rpm) == (ref_rpm, lim_rpm)
+    assert e.mass_kg == pytest.approx(mass_kg, rel=1e-12)
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize(
+    ("designation", "c_n", "c0_n"), [("6206", 20300.0, 11200.0), ("6305", 23400.0, 11600.0)]
+)
+def test_ratings_agree_with_the_skf_shielded_rows(designation, c_n, c0_n):
+    # SKF capped deep groove ball bearings, table 1.2 (PDF pp. 63, 65): 6206-2Z and 6305-2Z. A
+    # shield leaves the ball set, hence C_r and C_0r, unchanged: the same table gives the 6203-2Z
+    # and 6205-2Z exactly the open rows' ratings (SKF 2018, table 1.1).
+    e = catalogue_entry(designation)
+    assert e.dynamic_load_rating_n == pytest.approx(c_n, rel=1e-12)
+    assert e.static_load_rating_n == pytest.approx(c0_n, rel=1e-12)
+
+
+def test_seed_quotes_the_nsk_and_skf_ratings_of_the_6208():
+    # seed 2.2.2: "for a 6208, NSK gives C_r = 29100N and SKF gives C_r = 32500N"
+    assert catalogue_entry("seed").dynamic_load_rating_n == 29100.0
+    assert catalogue_entry("6208").dynamic_load_rating_n == 32500.0
+
+
+@pytest.mark.validation
+def test_6205_boundary_dimensions_are_the_cwru_size_table():
+    # CWRU Bearing Data Center, bearing information: 6205-2RS JEM inside diameter 0.9843 in,
+    # outside diameter 2.0472 in, thickness 0.5906 in. Four decimals: within 0.00005 in.
+    e = catalogue_entry("6205")
+    inch_m = 25.4e-3
+    for ours_m, published_in in zip(
+        (e.bore_diameter_m, e.outside_diameter_m, e.width_m), (0.9843, 2.0472, 0.5906), strict=True
+    ):
+        assert abs(ours_m / inch_m - published_in) <= 0.00005
+
+
+# Smith and Randall, Mech. Syst. Signal Process. 64-65 (2015), table 2 (from the CWRU geometry):
+# BPFI, BPFO, FTF, BSF as orders of the shaft speed. Their BSF is the ball spin, half of the CWRU
+# "rolling element" multiplier (4.7135, 3.9874) that tests/test_kinematics.py checks.
+SMITH_RANDALL_ORDERS = {
+    "6205": {"bpfi": 5.415, "bpfo": 3.585, "ftf": 0.3983, "bsf": 2.357},
+    "6203": {"bpfi": 4.947, "bpfo": 3.053, "ftf": 0.3816, "bsf": 1.994},
+}
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("designation", SMITH_RANDALL_ORDERS)
+def test_orders_are_smith_and_randalls_for_the_cwru_bearings(designation):
+    # Printed to 4 significant figures: the tolerance is half a unit of the last digit.
+    orders = characteristic_orders(catalogue_bearing(designation), 0.0)
+    for key, published in SMITH_RANDALL_ORDERS[designation].items():
+        half_unit = 0.5 * 10.0 ** (math.floor(math.log10(published)) - 3)
+        assert abs(orders[key] - published) <= half_unit, key

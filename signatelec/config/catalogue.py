@@ -33,16 +33,24 @@ by the rules above only if its ball set is overridden.
 
 Sources
 -------
-[CWRU] Case Western Reserve University Bearing Data Center, test rig description: drive-end
-    bearing SKF 6205-2RS JEM (9 balls, 0.3126 in ball diameter, 1.537 in pitch diameter) and
-    fan-end bearing SKF 6203-2RS JEM (8 balls, 0.2656 in, 1.122 in).
+Each value checked against its source, with the agreement and what could not be found, is listed in
+docs/catalogue_sources.md.
+
+[CWRU] Case Western Reserve University Bearing Data Center, bearing information,
+    https://engineering.case.edu/bearingdatacenter/bearing-information: drive-end bearing SKF
+    6205-2RS JEM (0.9843 x 2.0472 x 0.5906 in, 0.3126 in balls, 1.537 in pitch) and fan-end
+    bearing SKF 6203-2RS JEM (0.2656 in, 1.122 in). The page gives no ball count; its defect
+    multipliers (BPFO 3.5848 and 3.0530) give 9 and 8 balls.
 [KAt] C. Lessmeier, J. K. Kimotho, D. Zimmer, W. Sextro, "Condition monitoring of bearing damage
     in electromechanical drive systems by using motor current signals of electric motors: a
     benchmark data set for data-driven classification", PHM Society European Conference, 2016
-    (Paderborn University KAt data set): type 6203, 8 balls of 6.75 mm on a 28.55 mm pitch.
-[SKF] SKF, *Rolling bearings*, PUB BU/P1 17000/1 EN, 2018, product table of single row deep
-    groove ball bearings: C_r, C_0r, reference and limiting speeds, mass.
-[NSK] the seed, section 2.2.2: NSK gives C_r = 29 100 N for the 6208.
+    (Paderborn University KAt data set): type 6203, 8 balls of 6.75 mm on a 28.55 mm pitch (as
+    quoted in code using the data set; the paper itself not checked).
+[SKF] SKF, *Rolling bearings*, PUB BU/P1 17000/1 EN, 2018, product table 1.1 (single row deep
+    groove ball bearings): C_r, C_0r, reference and limiting speeds, mass; rows 6203 and 6205
+    checked. For 6206 and 6305, C_r and C_0r agree with SKF's capped-bearing table 1.2 (6206-2Z,
+    6305-2Z); the other SKF values are not yet checked.
+[NSK] the seed, section 2.2.2: NSK gives C_r = 29 100 N for the 6208 (and SKF 32 500 N).
 [ISO 15] ISO 15:2017, boundary dimensions d x D_o x B of the 62 and 63 series.
 Ball sizes given in inches are the standard inch balls the bearings carry (ISO 3290).
 """
