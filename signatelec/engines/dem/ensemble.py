@@ -87,7 +87,7 @@ FLAG = STATUS + 4  # 3: this step's overlap flag (code, body, kind)
 RATE = FLAG + 3  # the outer race radius' rate
 # accumulators of one force evaluation
 RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC = range(RATE + 1, RATE + 7)
-ROWS = ELASTIC + 1
+INV_MB, INV_MC, ROWS = ELASTIC + 1, ELASTIC + 2, ELASTIC + 3  # reciprocal masses; the count
 #: Rows of one recorded instant: time, positions and velocities, spins, contact forces,
 #: schedule, energy (kinetic in the last).
 REC_TIME = 0
@@ -160,11 +160,8 @@ def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, ro
             elastic = linear_elastic_energy(overlap, coef)
         else:
             elastic = hertz_elastic_energy(overlap, coef)
-        loss = loss if touch else 0.0
-        elastic = elastic if inside else 0.0
-    if not touch:
-        return 0.0, 0.0, 0.0, loss, elastic
-    return fn, root, quarter, loss, elastic
+        loss, elastic = (loss if touch else 0.0), (elastic if inside else 0.0)
+    return (fn, root, quarter, loss, elastic) if touch else (0.0, 0.0, 0.0, loss, elastic)
 
 
 @inline
@@ -225,21 +222,26 @@ def forces(step, PR, W):
                     )
                 work += -g * wsum * dt
         W[WORK * LANES + lane] = work
+    for lane in range(LANES):  # a vector division each, not one per body and lane
+        W[INV_MB * LANES + lane] = 1.0 / W[P_MB * LANES + lane]
+        W[INV_MC * LANES + lane] = 1.0 / W[P_MC * LANES + lane]
     if not CAGE_BALLS:
         for i in range(2 * BALLS * LANES, 4 * BALLS * LANES):
             W[ACC_NEW * LANES + i] = 0.0
     for k in range(BALLS):
         _ball_lanes(k, W)
-    if CAGE_BALLS:
-        for j in range(BALLS):
-            _cage_ball_lanes(j, W)
-    if CAGE_NONE:
-        for k in range(BALLS):  # ball k + 1 on ball k
-            m = k + 1 if k + 1 < BALLS else 0
-            _pair_lanes(m, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W)
+    if CAGE_BALLS:  # the last one's next ball (0) apart: no index is a select (scalar code)
+        for j in range(BALLS - 1):
+            _cage_ball_lanes(j, j + 1, W)
+        _cage_ball_lanes(BALLS - 1, 0, W)
+    if CAGE_NONE:  # ball k + 1 on ball k
+        for k in range(BALLS - 1):
+            _pair_lanes(k + 1, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W)
+        last = BALLS - 1
+        _pair_lanes(0, last, 4, P_RB, last, ROOTS + 20 * last + R_SIDE0, FCON + 6 * last + 4, W)
     for k in range(BALLS):
         for lane in range(LANES):
-            inv_mb = 1.0 / W[P_MB * LANES + lane]
+            inv_mb = W[INV_MB * LANES + lane]
             W[(ACC_NEW + 2 * k) * LANES + lane] *= inv_mb
             W[(ACC_NEW + 2 * k + 1) * LANES + lane] *= inv_mb
     for lane in range(LANES):
@@ -378,13 +380,12 @@ def _ball_lanes(k, W):
             W[WORK * LANES + lane] = work
         W[(ACC_NEW + 2 * k) * LANES + lane] = ball_fx
         W[(ACC_NEW + 2 * k + 1) * LANES + lane] = ball_fy
-        W[(SPIN_ACC + k) * LANES + lane] = torque * (1.0 / W[P_IB * LANES + lane])
+        W[(SPIN_ACC + k) * LANES + lane] = torque / W[P_IB * LANES + lane]  # as kernel.py's
 
 
 @inline
-def _cage_ball_lanes(j, W):
-    """Cage ball j on its boundaries and on balls j and j + 1, every lane (frictionless); one
-    lane loop per contact, so that each is innermost (and vectorised)."""
+def _cage_ball_lanes(j, nxt, W):
+    """Cage ball j on its boundaries, balls j and ``nxt`` (j + 1); a lane loop per contact."""
     c = BALLS + j
     cx_at = (POS + 2 * c) * LANES
     vc = (VEL + 2 * c) * LANES
@@ -419,9 +420,9 @@ def _cage_ball_lanes(j, W):
     # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
     root = ROOTS + 20 * j
     _pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W)
-    _pair_lanes(c, j + 1 if j + 1 < BALLS else 0, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W)
+    _pair_lanes(c, nxt, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W)
     for lane in range(LANES):
-        inv_mc = 1.0 / W[P_MC * LANES + lane]
+        inv_mc = W[INV_MC * LANES + lane]
         W[(ACC_NEW + 2 * c) * LANES + lane] *= inv_mc
         W[(ACC_NEW + 2 * c + 1) * LANES + lane] *= inv_mc
 
