@@ -565,7 +565,9 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
             for r in range(BALLS * LANES):
                 W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * W[DTS * LANES + r]
         running = 0
-        for lane in range(LANES):
+        for lane in range(LANES):  # a vector reduction; lane by lane only when one stops
+            running += W[STATUS * LANES + lane] == OK and W[FLAG * LANES + lane] == 0.0
+        for lane in range(LANES if running < LANES else 0):
             if W[STATUS * LANES + lane] == OK:
                 if W[FLAG * LANES + lane] != 0.0:
                     code = W[FLAG * LANES + lane] - 1.0
@@ -573,8 +575,6 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
                     W[(STATUS + 1) * LANES + lane] = step
                     W[(STATUS + 2) * LANES + lane] = code // 8.0
                     W[(STATUS + 3) * LANES + lane] = code % 8.0
-                else:
-                    running += 1
         if running == 0:
             return rec_index
         countdown -= 1
