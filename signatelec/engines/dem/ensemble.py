@@ -83,11 +83,12 @@ FCON = ROOTS + 20 * BALLS  # 6 per ball, as State.fcon
 SCHED = FCON + 6 * BALLS  # 4, as State.sched
 ENERGY_ROW = SCHED + 4  # 4, as State.energy
 STATUS = ENERGY_ROW + 4  # 4, as State.status (as floats)
-FLAG = STATUS + 4  # 3: this step's overlap flag (code, body, kind)
-RATE = FLAG + 3  # the outer race radius' rate
+FLAG = STATUS + 4  # this step's overlap: 0, or 1 + kind + 8 body (one masked store a contact)
+RATE = FLAG + 1  # the outer race radius' rate
 # accumulators of one force evaluation
 RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC = range(RATE + 1, RATE + 7)
-ROWS = ELASTIC + 1
+INV_MB, INV_MC, DTS = ELASTIC + 1, ELASTIC + 2, ELASTIC + 3  # reciprocal masses; dt (N2 rows)
+ROWS = DTS + N2
 #: Rows of one recorded instant: time, positions and velocities, spins, contact forces,
 #: schedule, energy (kinetic in the last).
 REC_TIME = 0
@@ -122,9 +123,7 @@ def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, ro
     The warm roots at ``root_row`` change only where the single-scene kernel changes them (a
     select: in a vector loop both the warm step and the cold root are computed)."""
     over = inside and overlap > limit_m  # selects, not a branch: the loop stays vectorised
-    W[FLAG * LANES + lane] = OVERLAP if over else W[FLAG * LANES + lane]
-    W[(FLAG + 1) * LANES + lane] = body if over else W[(FLAG + 1) * LANES + lane]
-    W[(FLAG + 2) * LANES + lane] = kind if over else W[(FLAG + 2) * LANES + lane]
+    W[FLAG * LANES + lane] = 1.0 + kind + 8.0 * body if over else W[FLAG * LANES + lane]
     touch = inside
     if not CONTACT_LAW_LINEAR:
         touch = inside and overlap > 0.0
@@ -160,11 +159,8 @@ def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, ro
             elastic = linear_elastic_energy(overlap, coef)
         else:
             elastic = hertz_elastic_energy(overlap, coef)
-        loss = loss if touch else 0.0
-        elastic = elastic if inside else 0.0
-    if not touch:
-        return 0.0, 0.0, 0.0, loss, elastic
-    return fn, root, quarter, loss, elastic
+        loss, elastic = (loss if touch else 0.0), (elastic if inside else 0.0)
+    return (fn, root, quarter, loss, elastic) if touch else (0.0, 0.0, 0.0, loss, elastic)
 
 
 @inline
@@ -205,7 +201,7 @@ def forces(step, PR, W):
         W[(SCHED + 1) * LANES + lane] = fr
         W[(SCHED + 2) * LANES + lane] = omega
         W[RATE * LANES + lane] = r_rate
-        W[FLAG * LANES + lane] = OK
+        W[FLAG * LANES + lane] = 0.0
         g = p.gravity_m_s2 if GRAVITY_STANDARD else 0.0
         W[RING_FX * LANES + lane] = 0.0
         W[RING_FY * LANES + lane] = -fr - p.inner_ring_mass_kg * g
@@ -225,21 +221,28 @@ def forces(step, PR, W):
                     )
                 work += -g * wsum * dt
         W[WORK * LANES + lane] = work
+    for lane in range(LANES):  # a vector division each, not one per body and lane
+        W[INV_MB * LANES + lane] = 1.0 / W[P_MB * LANES + lane]
+        W[INV_MC * LANES + lane] = 1.0 / W[P_MC * LANES + lane]
     if not CAGE_BALLS:
         for i in range(2 * BALLS * LANES, 4 * BALLS * LANES):
             W[ACC_NEW * LANES + i] = 0.0
     for k in range(BALLS):
         _ball_lanes(k, W)
+    # The last cage ball's next ball (0) apart: no index is a select (scalar code). A body's
+    # F / m joins the loop of its last contact (a small loop of its own stays scalar).
     if CAGE_BALLS:
-        for j in range(BALLS):
-            _cage_ball_lanes(j, W)
-    if CAGE_NONE:
-        for k in range(BALLS):  # ball k + 1 on ball k
-            m = k + 1 if k + 1 < BALLS else 0
-            _pair_lanes(m, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W)
-    for k in range(BALLS):
+        for j in range(BALLS - 1):
+            _cage_ball_lanes(j, j + 1, j > 0, False, W)
+        _cage_ball_lanes(BALLS - 1, 0, True, True, W)
+    if CAGE_NONE:  # ball k + 1 on ball k
+        for k in range(BALLS - 1):
+            _pair_lanes(k + 1, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W, 0)
+        last = BALLS - 1
+        _pair_lanes(0, last, 4, P_RB, last, ROOTS + 20 * last + R_SIDE0, FCON + 6 * last + 4, W, 0)
+    for k in range(0 if CAGE_BALLS else BALLS):
         for lane in range(LANES):
-            inv_mb = 1.0 / W[P_MB * LANES + lane]
+            inv_mb = W[INV_MB * LANES + lane]
             W[(ACC_NEW + 2 * k) * LANES + lane] *= inv_mb
             W[(ACC_NEW + 2 * k + 1) * LANES + lane] *= inv_mb
     for lane in range(LANES):
@@ -378,13 +381,13 @@ def _ball_lanes(k, W):
             W[WORK * LANES + lane] = work
         W[(ACC_NEW + 2 * k) * LANES + lane] = ball_fx
         W[(ACC_NEW + 2 * k + 1) * LANES + lane] = ball_fy
-        W[(SPIN_ACC + k) * LANES + lane] = torque * (1.0 / W[P_IB * LANES + lane])
+        W[(SPIN_ACC + k) * LANES + lane] = torque / W[P_IB * LANES + lane]  # as kernel.py's
 
 
 @inline
-def _cage_ball_lanes(j, W):
-    """Cage ball j on its boundaries and on balls j and j + 1, every lane (frictionless); one
-    lane loop per contact, so that each is innermost (and vectorised)."""
+def _cage_ball_lanes(j, nxt, last_j, last_nxt, W):
+    """Cage ball j on its boundaries, balls j and ``nxt`` (j + 1); a lane loop per contact.
+    ``last_j``, ``last_nxt``: that contact is the ball's last (its F / m follows)."""
     c = BALLS + j
     cx_at = (POS + 2 * c) * LANES
     vc = (VEL + 2 * c) * LANES
@@ -418,19 +421,16 @@ def _cage_ball_lanes(j, W):
         W[(ACC_NEW + 2 * c + 1) * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
     # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
     root = ROOTS + 20 * j
-    _pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W)
-    _pair_lanes(c, j + 1 if j + 1 < BALLS else 0, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W)
-    for lane in range(LANES):
-        inv_mc = 1.0 / W[P_MC * LANES + lane]
-        W[(ACC_NEW + 2 * c) * LANES + lane] *= inv_mc
-        W[(ACC_NEW + 2 * c + 1) * LANES + lane] *= inv_mc
+    _pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W, 1 if last_j else 0)
+    _pair_lanes(c, nxt, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W, 3 if last_nxt else 2)
 
 
 @inline
-def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W):
+def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W, last):
     """Body a (cage ball or ball, radius at ``radius_row``) on ball b, frictionless, every
     lane: the force on a added to its row of ACC_NEW, its opposite to b's (a cage ball on a
-    ball, or ball k + 1 on ball k without a cage)."""
+    ball, or ball k + 1 on ball k without a cage); then F / m of cage ball a if ``last`` & 2,
+    of ball b if ``last`` & 1."""
     for lane in range(LANES):
         radius = W[radius_row * LANES + lane]
         reach = W[P_RB * LANES + lane] + radius
@@ -456,10 +456,12 @@ def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W):
             W[ELASTIC * LANES + lane] += de
         fx = fn * nx if inside else 0.0
         fy = fn * ny if inside else 0.0
-        W[(ACC_NEW + 2 * a) * LANES + lane] += fx
-        W[(ACC_NEW + 2 * a + 1) * LANES + lane] += fy
-        W[(ACC_NEW + 2 * b) * LANES + lane] -= fx
-        W[(ACC_NEW + 2 * b + 1) * LANES + lane] -= fy
+        inv_a = W[INV_MC * LANES + lane] if last & 2 else 1.0
+        inv_b = W[INV_MB * LANES + lane] if last & 1 else 1.0
+        at_a = (ACC_NEW + 2 * a) * LANES + lane
+        at_b = (ACC_NEW + 2 * b) * LANES + lane
+        W[at_a], W[at_a + LANES] = (W[at_a] + fx) * inv_a, (W[at_a + LANES] + fy) * inv_a
+        W[at_b], W[at_b + LANES] = (W[at_b] - fx) * inv_b, (W[at_b + LANES] - fy) * inv_b
         W[fcon_row * LANES + lane] = fn
 
 
@@ -531,52 +533,48 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
     countdown = record_every - step0 % record_every
     for i_step in range(n_steps):
         step = step0 + i_step
+        # flat loops at constant offsets (dt from DTS): LLVM proves the rows apart, vectorises
         if INTEGRATOR_VERLET:
-            for r in range(N2):
-                for lane in range(LANES):
-                    dt = W[P_DT * LANES + lane]
-                    a = W[(ACC + r) * LANES + lane]
-                    v = W[(VEL + r) * LANES + lane]
-                    W[(POS + r) * LANES + lane] += v * dt + a * (0.5 * dt * dt)
-                    W[(VEL + r) * LANES + lane] += a * dt
+            for r in range(N2 * LANES):
+                dt = W[DTS * LANES + r]
+                a = W[ACC * LANES + r]
+                W[POS * LANES + r] += W[VEL * LANES + r] * dt + a * (0.5 * dt * dt)
+                W[VEL * LANES + r] += a * dt
             for r in range(BALLS * LANES):
-                dt = W[P_DT * LANES + r % LANES]
+                dt = W[DTS * LANES + r]
                 W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * dt
                 W[SPIN_OLD * LANES + r] = W[SPIN_ACC * LANES + r]
         forces(step, PR, W)
         if INTEGRATOR_VERLET:
-            for r in range(N2):
-                for lane in range(LANES):
-                    dt = W[P_DT * LANES + lane]
-                    a_new = W[(ACC_NEW + r) * LANES + lane]
-                    W[(VEL + r) * LANES + lane] += 0.5 * (a_new - W[(ACC + r) * LANES + lane]) * dt
-                    W[(ACC + r) * LANES + lane] = a_new
+            for r in range(N2 * LANES):
+                a_new = W[ACC_NEW * LANES + r]
+                W[VEL * LANES + r] += 0.5 * (a_new - W[ACC * LANES + r]) * W[DTS * LANES + r]
+                W[ACC * LANES + r] = a_new
             for r in range(BALLS * LANES):
-                dt = W[P_DT * LANES + r % LANES]
+                dt = W[DTS * LANES + r]
                 W[SPIN * LANES + r] += (
                     0.5 * (W[SPIN_ACC * LANES + r] - W[SPIN_OLD * LANES + r]) * dt
                 )
         else:
-            for r in range(N2):
-                for lane in range(LANES):
-                    dt = W[P_DT * LANES + lane]
-                    a_new = W[(ACC_NEW + r) * LANES + lane]
-                    W[(ACC + r) * LANES + lane] = a_new
-                    W[(VEL + r) * LANES + lane] += a_new * dt
-                    W[(POS + r) * LANES + lane] += W[(VEL + r) * LANES + lane] * dt
+            for r in range(N2 * LANES):
+                dt = W[DTS * LANES + r]
+                a_new = W[ACC_NEW * LANES + r]
+                W[ACC * LANES + r] = a_new
+                W[VEL * LANES + r] += a_new * dt
+                W[POS * LANES + r] += W[VEL * LANES + r] * dt
             for r in range(BALLS * LANES):
-                dt = W[P_DT * LANES + r % LANES]
-                W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * dt
+                W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * W[DTS * LANES + r]
         running = 0
-        for lane in range(LANES):
+        for lane in range(LANES):  # a vector reduction; lane by lane only when one stops
+            running += W[STATUS * LANES + lane] == OK and W[FLAG * LANES + lane] == 0.0
+        for lane in range(LANES if running < LANES else 0):
             if W[STATUS * LANES + lane] == OK:
-                if W[FLAG * LANES + lane] != OK:
-                    W[STATUS * LANES + lane] = W[FLAG * LANES + lane]
+                if W[FLAG * LANES + lane] != 0.0:
+                    code = W[FLAG * LANES + lane] - 1.0
+                    W[STATUS * LANES + lane] = OVERLAP
                     W[(STATUS + 1) * LANES + lane] = step
-                    W[(STATUS + 2) * LANES + lane] = W[(FLAG + 1) * LANES + lane]
-                    W[(STATUS + 3) * LANES + lane] = W[(FLAG + 2) * LANES + lane]
-                else:
-                    running += 1
+                    W[(STATUS + 2) * LANES + lane] = code // 8.0
+                    W[(STATUS + 3) * LANES + lane] = code % 8.0
         if running == 0:
             return rec_index
         countdown -= 1
@@ -592,6 +590,8 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
 @_entry
 def start(PR, W):
     """Initial accelerations at t = 0 of every lane (needed by velocity Verlet)."""
+    for r in range(N2 * LANES):  # each lane's dt, once per body coordinate (run's loops)
+        W[DTS * LANES + r] = W[P_DT * LANES + r % LANES]
     forces(-T_SHIFT, PR, W)
     for r in range(N2 * LANES):
         W[ACC * LANES + r] = W[ACC_NEW * LANES + r]
