@@ -278,30 +278,27 @@ def bench(out, duration_s, fresh_cache, cases, tiers, start_up, batch_sizes):
     )
 
     check_writable_file(out, suffixes=(".json",))
-    if start_up:
-        from signatelec.studies.bench import startup_cost
+    if start_up or tiers:
+        from signatelec.studies.bench import startup_cost, tier_marginal_cost
 
-        report = startup_cost()
-        click.echo(
-            f"signatelec simulate (seed scene, warm), medians of {report['repeat']}: CPU "
-            f"{report['median_cpu_s']:.3f} s, wall {report['median_wall_s']:.3f} s, first step "
-            f"at {report['median_first_step_s']:.3f} s (load average "
-            f"{report['load_average'][0]:.1f})"
-        )
-        write_bytes_atomic(out, json.dumps(report, indent=2).encode("utf-8"))
-        click.echo(f"wrote {out}")
-        return
-    if tiers:
-        from signatelec.studies.bench import tier_marginal_cost
-
-        report = tier_marginal_cost()
-        click.echo(
-            f"CPU s per simulated s at {report['sample_rate_hz']:g} Hz: DEM "
-            f"{report['dem_cpu_s_per_simulated_s']:.4g}, quasi-static tier "
-            f"{report['quasistatic_cpu_s_per_simulated_s']:.4g}; ratio {report['ratio']:.0f} "
-            f"(best of {len(report['runs']['dem'])} pairs; of the medians "
-            f"{report['median_ratio']:.0f}; user CPU only {report['user_ratio']:.0f})"
-        )
+        if start_up:
+            report = startup_cost()
+            line = (
+                f"signatelec simulate (seed scene, warm), medians of {report['repeat']}: CPU "
+                f"{report['median_cpu_s']:.3f} s, wall {report['median_wall_s']:.3f} s, first "
+                f"step at {report['median_first_step_s']:.3f} s (load average "
+                f"{report['load_average'][0]:.1f})"
+            )
+        else:
+            report = tier_marginal_cost()
+            line = (
+                f"CPU s per simulated s at {report['sample_rate_hz']:g} Hz: DEM "
+                f"{report['dem_cpu_s_per_simulated_s']:.4g}, quasi-static tier "
+                f"{report['quasistatic_cpu_s_per_simulated_s']:.4g}; ratio {report['ratio']:.0f} "
+                f"(best of {len(report['runs']['dem'])} pairs; of the medians "
+                f"{report['median_ratio']:.0f}; user CPU only {report['user_ratio']:.0f})"
+            )
+        click.echo(line)
         write_bytes_atomic(out, json.dumps(report, indent=2).encode("utf-8"))
         click.echo(f"wrote {out}")
         return

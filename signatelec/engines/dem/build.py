@@ -241,13 +241,19 @@ def _native_kernel(spec: KernelSpec, calls: dict[str, tuple]):
     name, source = kernel_name(spec)
     path = directory / f"{name}.py"
     _write_source(path, source)
-    kernel = load_native(path)
+    try:
+        kernel = load_native(path)
+    except (ImportError, OSError, RuntimeError):  # no native loading here: numba's own
+        kernel = None
     if kernel is None:
-        module = prepare(get_kernel(spec), spec, calls)
-        # the entry links the kernel's compiled start and run; numba's cache is now whole
-        write_native(path, module)
-        header, obj = read_native(path)
-        kernel = NativeKernel(obj, header["symbol"], name)
+        kernel = prepare(get_kernel(spec), spec, calls)
+        try:
+            # the entry links the kernel's compiled start and run; numba's cache is now whole
+            write_native(path, kernel)
+            header, obj = read_native(path)
+            kernel = NativeKernel(obj, header["symbol"], name)
+        except (ImportError, OSError, RuntimeError, TypeError):
+            pass  # numba's module serves (a slower start, the same kernel)
     _LOADED[key] = kernel
     return kernel
 

@@ -17,7 +17,8 @@ PERIOD_NODES) = 1.2e-4 rad for the seed's bearing). Where a contact
 opens or closes within the stencil the columns are not smooth (Hertz: force ~ delta^{3/2}, the
 contact radius and a ball's conductance ~ delta^{1/2}, Hamrock-Brewe and seed eq. 16), so the
 instants within :data:`SMOOTH_MARGIN` grid intervals of a change of the contact pattern are
-solved one by one, as the per-instant tier does (0.8 % of them for the seed's scene). The
+solved one by one, as the per-instant tier does (0.8 % of them for the seed's scene), each
+Newton started from the instant's interpolated ring shift. The
 columns that are a maximum or a count over the balls (largest ball load, loaded balls, largest
 current density) are formed at each instant from the interpolated ball columns, not
 interpolated themselves (a maximum has a kink where the largest ball changes). The tables agree

@@ -103,6 +103,9 @@ def inner_ring_angle_rad(scene: Scene, time_s) -> np.ndarray:
     _, t2, t3 = phase_times(scene)
     omega = scene.operating.omega_rad_s
     ramp = t3 - t2
+    if t.size and t.min() >= t3:  # the tier's instants: the spin-up is over (one pass, not six)
+        done = 0.5 * omega * (ramp - ramp / math.pi * math.sin(math.pi)) if ramp > 0.0 else 0.0
+        return done + omega * (t - t3)
     during = np.clip(t - t2, 0.0, ramp)
     if ramp > 0.0:
         spin_up = 0.5 * omega * (during - ramp / math.pi * np.sin(math.pi * during / ramp))
@@ -126,8 +129,11 @@ def steady_record_times_s(scene: Scene) -> np.ndarray:
     """The DEM's recorded instants ``k * record_every * dt_s`` that fall in the steady phase."""
     every, dt = scene.record_every, scene.numerics.dt_s
     n_rec = scene.n_steps // every
-    t = np.arange(1, n_rec + 1) * every * dt
-    return t[t > phase_times(scene)[2]]
+    end = phase_times(scene)[2]
+    # from a few instants before the set-up's end, the same products k * every * dt as all
+    first = max(1, int(end / (every * dt)) - 2)
+    t = np.arange(first, n_rec + 1) * every * dt
+    return t[np.searchsorted(t, end, side="right") :]
 
 
 # --- equilibrium ---------------------------------------------------------------------------------
