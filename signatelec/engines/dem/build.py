@@ -252,8 +252,16 @@ def _native_kernel(spec: KernelSpec, calls: dict[str, tuple]):
             write_native(path, kernel)
             header, obj = read_native(path)
             kernel = NativeKernel(obj, header["symbol"], name)
-        except (ImportError, OSError, RuntimeError, TypeError):
-            pass  # numba's module serves (a slower start, the same kernel)
+        except ImportError:
+            pass  # no numba extension file to link against here: numba's module serves
+        except Exception as exc:  # numba's module serves: a slower start, the same kernel
+            warnings.warn(
+                CacheWarning(
+                    f"kernel cache: no native entry for {name} ({type(exc).__name__}); "
+                    "numba loads the kernel in each process"
+                ),
+                stacklevel=3,
+            )
     _LOADED[key] = kernel
     return kernel
 
