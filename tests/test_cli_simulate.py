@@ -117,3 +117,19 @@ def test_bench_refuses_a_directory_before_running(tmp_path, capsys):
     code = run_cli(["bench", "--out", str(tmp_path)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "--out" in err[0]
+
+
+@pytest.mark.slow
+def test_bench_start_up_and_tiers(tmp_path, monkeypatch):
+    """The start-up and tier rows of the bench: whole-process figures of a warm `simulate`, and
+    the tier's marginal cost far below the DEM's (measured 750-900x on a loaded 2-core host;
+    100x is the floor the tier had to clear before it mapped instants onto one period)."""
+    from signatelec.studies import bench
+
+    startup = bench.startup_cost(repeat=1, out_dir=str(tmp_path))
+    assert startup["repeat"] == 1
+    assert 0.0 < startup["median_first_step_s"] < startup["median_wall_s"]
+    assert startup["median_cpu_s"] > 0.0
+    tiers = bench.tier_marginal_cost(repeat=3)  # the best of 3 pairs: a loaded host spikes
+    assert tiers["dem_cpu_s_per_simulated_s"] > 0.0
+    assert tiers["ratio"] > 100.0

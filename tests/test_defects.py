@@ -19,7 +19,8 @@ from signatelec.engines.dem.run import simulate_dem
 from signatelec.engines.dem.spec import SCENE_FLAGS, KernelSpec
 from signatelec.engines.quasistatic.tier import simulate_quasistatic, solve_ring_equilibrium
 from signatelec.physics import kinematics
-from signatelec.physics.defects import bridged_drop_m, contact_radii_m, spall_drop_m
+from signatelec.physics.defect_geometry import contact_radii_m
+from signatelec.physics.defects import bridged_drop_m, spall_drop_m
 
 SPALL = {"length_m": 1.5e-3, "depth_m": 50e-6}
 

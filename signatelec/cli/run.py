@@ -248,7 +248,14 @@ def summary(result, out: str | None = None) -> str:
     "--tiers",
     is_flag=True,
     help="Instead of the cases: the marginal CPU per simulated second of the DEM and of the "
-    "quasi-static tier (seed scene, same process, best of 5 interleaved pairs).",
+    "quasi-static tier (seed scene, same process, best and median of 7 interleaved pairs).",
+)
+@click.option(
+    "--start-up",
+    "start_up",
+    is_flag=True,
+    help="Instead of the cases: the whole-process CPU and wall time of `signatelec simulate` "
+    "on the seed scene, warm, and its time to first step (medians of 7 runs).",
 )
 @click.option(
     "--batch-sizes",
@@ -259,7 +266,7 @@ def summary(result, out: str | None = None) -> str:
     help="Batch sizes of the ensemble kernel to measure the seed scene at, CPU us per "
     "scene-step against the single-scene kernel (comma-separated; empty: none).",
 )
-def bench(out, duration_s, fresh_cache, cases, tiers, batch_sizes):
+def bench(out, duration_s, fresh_cache, cases, tiers, start_up, batch_sizes):
     """Cost of the seed scene and of each scene option (us per step, compile apart), and of
     the seed scene in batches of the ensemble kernel (us per scene-step)."""
     from signatelec.studies.bench import (
@@ -271,17 +278,27 @@ def bench(out, duration_s, fresh_cache, cases, tiers, batch_sizes):
     )
 
     check_writable_file(out, suffixes=(".json",))
-    if tiers:
-        from signatelec.studies.bench import tier_marginal_cost
+    if start_up or tiers:
+        from signatelec.studies.bench import startup_cost, tier_marginal_cost
 
-        report = tier_marginal_cost()
-        click.echo(
-            f"CPU s per simulated s at {report['sample_rate_hz']:g} Hz: DEM "
-            f"{report['dem_cpu_s_per_simulated_s']:.4g}, quasi-static tier "
-            f"{report['quasistatic_cpu_s_per_simulated_s']:.4g}; ratio {report['ratio']:.0f} "
-            f"(best of 5 pairs; of the medians {report['median_ratio']:.0f}; user CPU only "
-            f"{report['user_ratio']:.0f})"
-        )
+        if start_up:
+            report = startup_cost()
+            line = (
+                f"signatelec simulate (seed scene, warm), medians of {report['repeat']}: CPU "
+                f"{report['median_cpu_s']:.3f} s, wall {report['median_wall_s']:.3f} s, first "
+                f"step at {report['median_first_step_s']:.3f} s (load average "
+                f"{report['load_average'][0]:.1f})"
+            )
+        else:
+            report = tier_marginal_cost()
+            line = (
+                f"CPU s per simulated s at {report['sample_rate_hz']:g} Hz: DEM "
+                f"{report['dem_cpu_s_per_simulated_s']:.4g}, quasi-static tier "
+                f"{report['quasistatic_cpu_s_per_simulated_s']:.4g}; ratio {report['ratio']:.0f} "
+                f"(best of {len(report['runs']['dem'])} pairs; of the medians "
+                f"{report['median_ratio']:.0f}; user CPU only {report['user_ratio']:.0f})"
+            )
+        click.echo(line)
         write_bytes_atomic(out, json.dumps(report, indent=2).encode("utf-8"))
         click.echo(f"wrote {out}")
         return

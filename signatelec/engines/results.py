@@ -8,10 +8,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from signatelec.config.scene import Scene
+
+if TYPE_CHECKING:  # a streamed run never builds a DataFrame: pandas is imported where used
+    import pandas as pd
 
 
 class DivergenceError(RuntimeError):
@@ -24,6 +26,18 @@ PHASES = ("clearance", "load", "spin_up", "steady")
 LOADED_FORCE_N = 1e-6
 #: Smallest inner-ring shift for which the load parameter of eq. 15 is reported.
 MIN_SHIFT_M = 1e-9
+
+
+def to_frame(columns: dict, copy: bool = True) -> pd.DataFrame:
+    """A table given as numpy columns (``phase``, when there, as codes into :data:`PHASES`) as
+    the DataFrame a result holds (``phase`` categorical; ``copy=False``: the arrays themselves,
+    for columns made for the table alone)."""
+    import pandas as pd
+
+    data = dict(columns)
+    if "phase" in data and not isinstance(data["phase"], pd.Categorical):
+        data["phase"] = pd.Categorical.from_codes(data["phase"], PHASES)
+    return pd.DataFrame(data, copy=copy)
 
 
 def phase_times(scene: Scene) -> tuple[float, float, float]:

@@ -46,14 +46,24 @@ import math
 import numpy as np
 from numba import njit
 
-#: Location codes of a defect (config.defects.LOCATIONS order) and of a contact side.
-OUTER_RACE, INNER_RACE, BALL_SURFACE = 0, 1, 2
-#: Contact sides: the ball on the inner or the outer race (config.bearing INNER, OUTER).
-INNER_SIDE, OUTER_SIDE = 0, 1
+from signatelec.physics.defect_geometry import (
+    BALL,
+    BALL_SURFACE,
+    CENTRE,
+    DEPTH,
+    HALF_LENGTH,
+    INNER_RACE,
+    INNER_SIDE,
+    LOCATION,
+    OUTER_RACE,
+    OUTER_SIDE,
+    SMOOTH,
+    SURFACE_RADIUS,
+    contact_radii_m,
+    defect_table,
+)
+
 TWO_PI = 2.0 * math.pi
-#: Rows of a defect table (:func:`defect_table`), one column per defect.
-LOCATION, CENTRE, HALF_LENGTH, DEPTH, BALL, SMOOTH, SURFACE_RADIUS = range(7)
-TABLE_ROWS = 7
 
 _inline = njit(inline="always", error_model="numpy")
 
@@ -90,7 +100,8 @@ def surface_drop_m(side, theta, ring_angle, ball, ball_angle, table, count, radi
     ``theta``: direction of the contact from the centre it belongs to (the outer race's for the
     outer contact, the inner ring's for the inner one), rad from -y; ``ring_angle`` the inner
     ring's rotation, ``ball_angle`` the ball's; ``radius_m`` the pair's equivalent radius.
-    ``table`` (TABLE_ROWS, n) from :func:`defect_table`, its first ``count`` columns used.
+    ``table`` (TABLE_ROWS, n) from :func:`~signatelec.physics.defect_geometry.defect_table`, its
+    first ``count`` columns used.
     """
     drop = 0.0
     for j in range(count):
@@ -138,37 +149,6 @@ def tabulated_loads_n(times_after_setup_s, times_s, loads_n, static_n):
     for i in range(out.shape[0]):
         out[i] = tabulated_load_n(times_after_setup_s[i], times_s, loads_n, count, static_n)
     return out
-
-
-# --- what the scene gives -------------------------------------------------------------------------
-
-
-def defect_table(scene, width: int | None = None) -> np.ndarray:
-    """The scene's defects as a (TABLE_ROWS, width) array (default width: their number)."""
-    b = scene.bearing
-    codes = {"outer": OUTER_RACE, "inner": INNER_RACE, "ball": BALL_SURFACE}
-    radii = {
-        "outer": b.outer_race_radius_m + scene.operating.clearance_m,
-        "inner": b.inner_race_radius_m,
-        "ball": b.ball_radius_m,
-    }
-    table = np.zeros((TABLE_ROWS, len(scene.defects) if width is None else width))
-    for j, d in enumerate(scene.defects):
-        table[LOCATION, j] = codes[d.location]
-        table[CENTRE, j] = d.angle_rad
-        table[HALF_LENGTH, j] = 0.5 * d.length_m
-        table[DEPTH, j] = d.depth_m
-        table[BALL, j] = d.ball
-        table[SMOOTH, j] = d.profile == "smooth"
-        table[SURFACE_RADIUS, j] = radii[d.location]
-    return table
-
-
-def contact_radii_m(bearing) -> tuple[float, float]:
-    """In-plane equivalent radii of the ball on the inner and on the outer race, m:
-    1/R = 1/R_b + 1/R_inn (convex on convex) and 1/R_b - 1/R_out (in the concave outer race)."""
-    rb, ri, ro = bearing.ball_radius_m, bearing.inner_race_radius_m, bearing.outer_race_radius_m
-    return rb * ri / (rb + ri), rb * ro / (ro - rb)
 
 
 @njit(cache=True, error_model="numpy")

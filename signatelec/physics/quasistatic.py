@@ -325,7 +325,9 @@ def ring_equilibrium(
     asked, relative to the load carried; ``unit_xy`` the ``(sin psi, -cos psi)`` arrays when the
     caller has them; ``clearance_m`` may be a (T, Z) array (each ball's at each instant) and
     ``load_xy_n`` a (T, 2) array of the load at each instant, replacing the static F_r's (a
-    rotating or time-varying load). Raises as :func:`solve_equilibrium_over_time`.
+    rotating or time-varying load); ``initial_shift_xy_m`` may be (T, 2), each instant's own
+    start (:func:`~signatelec.physics.ring_equilibrium.solve_ring`). Raises as
+    :func:`solve_equilibrium_over_time`.
     """
     from signatelec.physics.ring_equilibrium import solve_ring
 

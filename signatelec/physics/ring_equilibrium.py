@@ -312,15 +312,19 @@ def _solve_instant(
 
 @njit(cache=_CACHE, error_model="numpy")
 def _solve_series(ux, uy, body, clearance, fx, fy, ci, co, n, floor, rtol, start, out):
-    """Every instant in turn, each started from the extrapolation of the three before.
+    """Every instant in turn, each started from the extrapolation of the three before, or,
+    when ``start`` (S, 2) has a row per instant, from its own row (instants far apart).
 
     ``clearance`` (T, Z): each ball's clearance at each instant; ``fx, fy`` (T,): the load."""
     shift, qi, qo, xi, xo, ok = out
     t_count, z = ux.shape
     split = np.full(z, _unit_force_split(ci, co, n))
     reach = np.empty(z)
+    own = start.shape[0] == t_count and t_count > 1
     for t in range(t_count):
-        if t >= 3:
+        if own:
+            sx, sy = start[t, 0], start[t, 1]
+        elif t >= 3:
             sx = 3.0 * (shift[t - 1, 0] - shift[t - 2, 0]) + shift[t - 3, 0]
             sy = 3.0 * (shift[t - 1, 1] - shift[t - 2, 1]) + shift[t - 3, 1]
         elif t == 2:
@@ -329,7 +333,7 @@ def _solve_series(ux, uy, body, clearance, fx, fy, ci, co, n, floor, rtol, start
         elif t == 1:
             sx, sy = shift[0, 0], shift[0, 1]
         else:
-            sx, sy = start[0], start[1]
+            sx, sy = start[0, 0], start[0, 1]
         _reach(body[t], ci, co, n, reach)
         sx, sy, good = _solve_instant(
             sx,
@@ -416,8 +420,9 @@ def solve_ring(
         Exponent n of the normal law: 1.5 (Hertz, Harris) or 1 (linear).
     rtol : float
         Residual |R| accepted, relative to the load carried F + sum Q_i.
-    start_xy_m : array_like, shape (2,)
-        Shift the first instant starts from.
+    start_xy_m : array_like, shape (2,) or (T, 2)
+        Shift the first instant starts from, or each instant's own start (instants far apart,
+        whose extrapolation would start far off).
     """
     if exponent not in NORMAL_LAWS:
         raise ValueError(f"exponent = {exponent!r}: allowed {sorted(NORMAL_LAWS)}")
@@ -441,6 +446,6 @@ def solve_ring(
         np.zeros(n_instants, dtype=np.bool_),
     )
     if n_instants:
-        start = np.asarray(start_xy_m, dtype=float).reshape(2)
+        start = np.ascontiguousarray(np.asarray(start_xy_m, dtype=float).reshape(-1, 2))
         _solve_series(ux, uy, body, clearance, fx, fy, ci, co, n, floor, rtol, start, out)
     return RingSolution(*out)

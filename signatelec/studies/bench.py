@@ -118,7 +118,7 @@ def format_table(report: dict) -> str:
     return "\n".join(lines)
 
 
-def tier_marginal_cost(repeat: int = 5, sample_rate_hz: float = 20000.0) -> dict:
+def tier_marginal_cost(repeat: int = 7, sample_rate_hz: float = 20000.0) -> dict:
     """Marginal CPU per simulated second of the DEM and of the quasi-static tier on the seed's
     scene, in this process, interleaved: each engine run at two durations (the DEM 5 and 25 ms of
     steady running, the tier 2 and 10 s, whose instants map onto one ball-pass period), the CPU
@@ -168,6 +168,53 @@ def tier_marginal_cost(repeat: int = 5, sample_rate_hz: float = 20000.0) -> dict
         "runs": total,
         "user_runs": user,
     }
+
+
+def startup_cost(repeat: int = 7, out_dir: str | None = None) -> dict:
+    """Whole-process cost of ``signatelec simulate`` on the seed's scene, warm (its kernel and
+    byte code cached by a first run, not counted): CPU (user + system, of the child process)
+    and wall time, and the time to first step the run records
+    (``timings["process_to_first_step_s"]``); medians of ``repeat`` runs, and each run's."""
+    import json
+    import resource
+    import statistics
+    import subprocess
+    import sys
+    import time
+
+    import pyarrow.parquet as pq
+
+    from signatelec.io import METADATA_KEY
+
+    work = out_dir or tempfile.mkdtemp(prefix="signatelec-startup-")
+    out = os.path.join(work, "seed")
+    command = [
+        sys.executable,
+        "-c",
+        "import sys; from signatelec.cli import main; sys.argv[0] = 'signatelec'; main()",
+        "simulate",
+        "--quiet",
+        "--out",
+        out,
+    ]
+    runs: dict[str, list[float]] = {"cpu_s": [], "wall_s": [], "first_step_s": []}
+    for attempt in range(max(1, repeat) + 1):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        subprocess.run(command, check=True)
+        wall = time.perf_counter() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if not attempt:
+            continue  # compiles or loads the kernel, writes the byte code: not warm
+        meta = json.loads(
+            pq.read_schema(os.path.join(out, "signals.parquet")).metadata[METADATA_KEY]
+        )
+        runs["cpu_s"].append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+        runs["wall_s"].append(wall)
+        runs["first_step_s"].append(meta["timings"]["process_to_first_step_s"])
+    report = {f"median_{k}": statistics.median(v) for k, v in runs.items()}
+    report.update(runs=runs, repeat=len(runs["cpu_s"]), load_average=os.getloadavg())
+    return report
 
 
 #: Batch sizes of the ensemble kernel's bench (``signatelec bench --batch-sizes``).

@@ -17,6 +17,10 @@ installing another version, gives another file name and a fresh compile.
 A damaged cache is rebuilt, not fatal: a generated file that differs from what it should hold,
 or numba index/data files it cannot read, give one warning line and a fresh compile; an
 unusable cache directory gives one warning line and a temporary one (``signatelec.io``).
+
+The single-scene kernel also keeps its machine code as an object file that later processes link
+without importing numba (:mod:`signatelec.engines.dem.native`; ``get_kernel(spec, calls=...)``);
+nothing here imports numba until a kernel has to be compiled or loaded by numba itself.
 """
 
 from __future__ import annotations
@@ -33,7 +37,6 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-import numba
 import numpy as np
 
 import signatelec._version
@@ -84,6 +87,32 @@ def specialise(source: str, spec: KernelSpec, constants: dict[str, int] | None =
     return out
 
 
+def _top_level_imports(text: str) -> ast.Module:
+    """The top-level import statements of module source ``text`` as a module (those the
+    kernel's cache key follows): only the lines that start with ``import``/``from`` at column 0
+    and their continuation are parsed, not the whole module (a tenth of the time). A docstring
+    line that happens to parse as an import only adds a file to the key."""
+    body = []
+    lines = text.splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        i += 1
+        if not line.startswith(("import ", "from ")):
+            continue
+        statement = line
+        while (statement.count("(") > statement.count(")") or statement.endswith("\\")) and i < len(
+            lines
+        ):
+            statement += "\n" + lines[i]
+            i += 1
+        try:
+            body.extend(ast.parse(statement).body)
+        except SyntaxError:  # prose in a docstring
+            continue
+    return ast.Module(body=body, type_ignores=[])
+
+
 def _imported_modules(name: str, tree: ast.Module) -> set[str]:
     """signatelec modules that module ``name`` imports at its top level."""
     found = set()
@@ -92,10 +121,15 @@ def _imported_modules(name: str, tree: ast.Module) -> set[str]:
             found.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
             package = name.rpartition(".")[0]
-            base = importlib.util.resolve_name("." * node.level + (node.module or ""), package)
+            try:
+                base = importlib.util.resolve_name("." * node.level + (node.module or ""), package)
+            except ImportError:  # a relative import in prose
+                continue
             if not base.startswith("signatelec"):
                 continue
             package_spec = importlib.util.find_spec(base)
+            if package_spec is None:
+                continue
             for alias in node.names:
                 submodule = f"{base}.{alias.name}"
                 is_module = package_spec.submodule_search_locations is not None and (
@@ -117,15 +151,31 @@ def kernel_sources(template_module: str = TEMPLATE_MODULE) -> dict[str, str]:
             continue
         text = Path(importlib.util.find_spec(name).origin).read_text(encoding="utf-8")
         sources[name] = text
-        pending.extend(_imported_modules(name, ast.parse(text)) - set(sources))
+        pending.extend(_imported_modules(name, _top_level_imports(text)) - set(sources))
     return sources
+
+
+def numba_version() -> str:
+    """numba's version: ``numba.__version__`` once numba is imported, else read from its
+    ``_version.py`` (the release's own record) without importing numba."""
+    numba = sys.modules.get("numba")
+    if numba is not None:
+        return numba.__version__
+    spec = importlib.util.find_spec("numba")
+    try:
+        text = Path(spec.submodule_search_locations[0], "_version.py").read_text("utf-8")
+        return re.search(r'^ "version": "([^"]+)"', text, re.M).group(1)
+    except (OSError, AttributeError, TypeError):
+        from importlib.metadata import version
+
+        return version("numba")
 
 
 def versions() -> dict[str, str]:
     """What else the compiled code depends on."""
     return {
         "signatelec": signatelec._version.__version__,
-        "numba": numba.__version__,
+        "numba": numba_version(),
         "numpy": np.__version__,
         "python": platform.python_version(),
         "implementation": sys.implementation.name,
@@ -153,10 +203,20 @@ def kernel_name(spec: KernelSpec, constants: dict[str, int] | None = None) -> tu
     return f"{prefix}_{cache_key(source, kernel_sources(module), versions())}", source
 
 
-def get_kernel(spec: KernelSpec, constants: dict[str, int] | None = None) -> ModuleType:
+def get_kernel(
+    spec: KernelSpec, constants: dict[str, int] | None = None, calls: dict[str, tuple] | None = None
+):
     """The kernel module for ``spec`` (numba compiles or loads it on first call; see
     :func:`prepare`); with ``constants`` (``{"BALLS": Z, "LANES": L}``), the ensemble kernel
-    for L scenes of Z balls."""
+    for L scenes of Z balls.
+
+    With ``calls`` (the single-scene kernel's entry points and arguments, as for
+    :func:`prepare`), the kernel ready to call: its cached object code linked without numba
+    (:class:`signatelec.engines.dem.native.NativeKernel`), or, the first time or when numba's
+    cache of it changed, the module prepared by numba, its object code then written for the
+    next processes."""
+    if calls is not None and constants is None:
+        return _native_kernel(spec, calls)
     directory = cache_dir("kernels")
     key = (spec, directory, tuple(sorted((constants or {}).items())), constants is None)
     loaded = _LOADED.get(key)
@@ -168,6 +228,42 @@ def get_kernel(spec: KernelSpec, constants: dict[str, int] | None = None) -> Mod
     module = _import(name, path, spec, constants)
     _LOADED[key] = module
     return module
+
+
+def _native_kernel(spec: KernelSpec, calls: dict[str, tuple]):
+    from signatelec.engines.dem.native import NativeKernel, load_native, read_native, write_native
+
+    directory = cache_dir("kernels")
+    key = ("native", spec, directory)
+    loaded = _LOADED.get(key)
+    if loaded is not None:
+        return loaded
+    name, source = kernel_name(spec)
+    path = directory / f"{name}.py"
+    _write_source(path, source)
+    try:
+        kernel = load_native(path)
+    except (ImportError, OSError, RuntimeError):  # no native loading here: numba's own
+        kernel = None
+    if kernel is None:
+        kernel = prepare(get_kernel(spec), spec, calls)
+        try:
+            # the entry links the kernel's compiled start and run; numba's cache is now whole
+            write_native(path, kernel)
+            header, obj = read_native(path)
+            kernel = NativeKernel(obj, header["symbol"], name)
+        except ImportError:
+            pass  # no numba extension file to link against here: numba's module serves
+        except Exception as exc:  # numba's module serves: a slower start, the same kernel
+            warnings.warn(
+                CacheWarning(
+                    f"kernel cache: no native entry for {name} ({type(exc).__name__}); "
+                    "numba loads the kernel in each process"
+                ),
+                stacklevel=3,
+            )
+    _LOADED[key] = kernel
+    return kernel
 
 
 def _write_source(path: Path, source: str) -> None:
@@ -215,7 +311,9 @@ def _import(
 
 
 def _purge(path: Path) -> None:
-    """Remove numba's cache files of the kernel at ``path`` (index and data of every function)."""
+    """Remove numba's cache files of the kernel at ``path`` (index and data of every function)
+    and its native object."""
+    path.with_suffix(".native").unlink(missing_ok=True)
     numba_dirs = {path.parent / "__pycache__"}
     module = sys.modules.get(path.stem)
     for entry in ENTRY_POINTS:
@@ -237,6 +335,8 @@ def prepare(module: ModuleType, spec: KernelSpec, calls: dict[str, tuple]) -> Mo
     """Compile, or load from the disk cache, the entry points named in ``calls`` for the types of
     their arguments, without running them. Numba cache files that cannot be read are removed
     with one warning line and the kernel compiled afresh. Returns the module to call."""
+    import numba
+
     for attempt in range(2):
         try:
             for entry, args in calls.items():
@@ -258,5 +358,11 @@ def prepare(module: ModuleType, spec: KernelSpec, calls: dict[str, tuple]) -> Mo
             if path.stem.startswith("signatelec_ensemble"):
                 constants = {"BALLS": module.BALLS, "LANES": module.LANES}
             module = _import(path.stem, path, spec, constants)
-            _LOADED.update({k: module for k, v in _LOADED.items() if v.__name__ == path.stem})
+            _LOADED.update(
+                {
+                    k: module
+                    for k, v in _LOADED.items()
+                    if k[0] != "native" and v.__name__ == path.stem
+                }
+            )
     raise AssertionError("unreachable")

@@ -77,7 +77,7 @@ from signatelec.engines.dem.records import (
     XI_ROTATION,
 )
 from signatelec.physics import contact as _contact
-from signatelec.physics.defects import INNER_SIDE, OUTER_SIDE
+from signatelec.physics.defect_geometry import INNER_SIDE, OUTER_SIDE
 
 # The contact laws are the functions of signatelec.physics.contact themselves, inlined.
 hertz_elastic_energy = inline(_contact.hertz_elastic_energy)

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from signatelec.config.defects import MAX_DEFECTS, MAX_LOAD_TABLE_POINTS
-from signatelec.physics.defects import TABLE_ROWS
+from signatelec.physics.defect_geometry import TABLE_ROWS
 
 #: Scalar parameters of one run (a numpy structured scalar; the kernel reads ``p.dt_s``).
 PARAMS = np.dtype(
@@ -60,7 +60,7 @@ PARAMS = np.dtype(
         ("tangential_damping_factor", "f8", (2,)),
         # defects and abnormal loads (read only by kernels with their flags, spec.SCENE_FLAGS)
         ("defect_count", "i8"),
-        ("defect_table", "f8", (TABLE_ROWS, MAX_DEFECTS)),  # physics.defects.defect_table
+        ("defect_table", "f8", (TABLE_ROWS, MAX_DEFECTS)),  # physics.defect_geometry.defect_table
         ("contact_radius_m", "f8", (2,)),  # in-plane equivalent radii, inner and outer race
         ("lobes", "f8"),  # out-of-round outer race: A cos(n theta)
         ("lobe_amplitude_m", "f8"),

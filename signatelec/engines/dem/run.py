@@ -13,11 +13,10 @@ import time
 from dataclasses import replace
 
 import numpy as np
-import pandas as pd
 
 from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, contact_properties
 from signatelec.config.scene import Scene, SceneError
-from signatelec.engines.dem.build import get_kernel, prepare
+from signatelec.engines.dem.build import get_kernel
 from signatelec.engines.dem.records import (
     OK,
     REC_ROTATION,
@@ -34,15 +33,16 @@ from signatelec.engines.results import (
     DivergenceError,
     SimulationResult,
     phase_times,
+    to_frame,
 )
-from signatelec.engines.stream import STREAM_BLOCK_INSTANTS, TableStream
+from signatelec.engines.stream import STREAM_BLOCK_INSTANTS, TableStream, arrow_table
 from signatelec.physics.contact import (
     critical_damping,
     hertz_critical_damping,
     mindlin_coefficient,
     tangential_stiffness_from_overlap,
 )
-from signatelec.physics.defects import contact_radii_m, defect_table
+from signatelec.physics.defect_geometry import contact_radii_m, defect_table
 from signatelec.physics.laws import scene_law
 from signatelec.physics.stability import stability_limit
 
@@ -145,28 +145,28 @@ def initial_state(scene: Scene) -> State:
     return new_state(pos)
 
 
-def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFrame]:
+def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[dict, dict]:
+    """The ``balls`` and ``signals`` columns of the ``n_rec`` instants of ``rec`` (numpy arrays;
+    ``phase`` as codes into PHASES): a streamed run writes them without pandas."""
     z = scene.bearing.n_balls
     t, pos, vel, spin, fcon, sched, energy = (a[:n_rec] for a in rec)  # Recording order
     ring = 2 * z
     bx, by = pos[:, :z, 0], pos[:, :z, 1]
     r2 = bx * bx + by * by
     orbit = (bx * vel[:, :z, 1] - by * vel[:, :z, 0]) / r2
-    balls = pd.DataFrame(
-        {
-            "time_s": np.repeat(t, z),
-            "ball": np.tile(np.arange(z, dtype=np.int32), n_rec),
-            "angle_rad": np.arctan2(bx, -by).ravel(),
-            "x_m": bx.ravel(),
-            "y_m": by.ravel(),
-            "orbit_speed_rad_s": orbit.ravel(),
-            "spin_rad_s": spin.ravel(),
-            "inner_force_n": fcon[:, :, 0].ravel(),
-            "outer_force_n": fcon[:, :, 1].ravel(),
-            "inner_tangential_n": fcon[:, :, 2].ravel(),
-            "outer_tangential_n": fcon[:, :, 3].ravel(),
-        }
-    )
+    balls = {
+        "time_s": np.repeat(t, z),
+        "ball": np.tile(np.arange(z, dtype=np.int32), n_rec),
+        "angle_rad": np.arctan2(bx, -by).ravel(),
+        "x_m": bx.ravel(),
+        "y_m": by.ravel(),
+        "orbit_speed_rad_s": orbit.ravel(),
+        "spin_rad_s": spin.ravel(),
+        "inner_force_n": fcon[:, :, 0].ravel(),
+        "outer_force_n": fcon[:, :, 1].ravel(),
+        "inner_tangential_n": fcon[:, :, 2].ravel(),
+        "outer_tangential_n": fcon[:, :, 3].ravel(),
+    }
     ix, iy = pos[:, ring, 0], pos[:, ring, 1]
     delta_r = np.hypot(ix, iy)
     clearance = scene.operating.clearance_m
@@ -174,24 +174,22 @@ def _raw_tables(scene: Scene, n_rec: int, rec) -> tuple[pd.DataFrame, pd.DataFra
         # eq. 15 is undefined for a centred ring: below 1 nm of shift epsilon is NaN, not +-1e19
         eps = np.where(delta_r > MIN_SHIFT_M, 0.5 * (1.0 - clearance / delta_r), np.nan)
     t1, t2, t3 = phase_times(scene)
-    phase = np.select([t <= t1, t <= t2, t <= t3], [0, 1, 2], 3)
-    signals = pd.DataFrame(
-        {
-            "time_s": t,
-            "phase": pd.Categorical.from_codes(phase, PHASES),
-            "inner_x_m": ix,
-            "inner_y_m": iy,
-            "delta_r_m": delta_r,
-            "epsilon": eps,
-            "outer_race_radius_m": sched[:, 0],
-            "applied_load_n": sched[:, 1],
-            "inner_omega_rad_s": sched[:, 2],
-            "drive_torque_n_m": sched[:, 3],
-            "cage_speed_rad_s": orbit.mean(axis=1),
-            "loaded_balls": (fcon[:, :, 0] > LOADED_FORCE_N).sum(axis=1).astype(np.int32),
-            "max_ball_load_n": fcon[:, :, 0].max(axis=1),
-        }
-    )
+    phase = np.select([t <= t1, t <= t2, t <= t3], [0, 1, 2], 3).astype(np.int8)
+    signals = {
+        "time_s": t,
+        "phase": phase,
+        "inner_x_m": ix,
+        "inner_y_m": iy,
+        "delta_r_m": delta_r,
+        "epsilon": eps,
+        "outer_race_radius_m": sched[:, 0],
+        "applied_load_n": sched[:, 1],
+        "inner_omega_rad_s": sched[:, 2],
+        "drive_torque_n_m": sched[:, 3],
+        "cage_speed_rad_s": orbit.mean(axis=1),
+        "loaded_balls": (fcon[:, :, 0] > LOADED_FORCE_N).sum(axis=1).astype(np.int32),
+        "max_ball_load_n": fcon[:, :, 0].max(axis=1),
+    }
     if scene.effects.cage == "rigid":
         signals["cage_x_m"] = pos[:, z, 0]
         signals["cage_y_m"] = pos[:, z, 1]
@@ -300,7 +298,7 @@ class _BlockElectrics:
         t0 = time.perf_counter()
         scene = self.scene
         z = scene.bearing.n_balls
-        steady = (signals["phase"] == "steady").to_numpy()
+        steady = signals["phase"] == PHASES.index("steady")
         el = bearing_electrics(
             fcon[:, :, 0],
             fcon[:, :, 1],
@@ -391,7 +389,6 @@ def simulate_dem(
     scene = scene or Scene()
     limit = checked_limit(scene)
     spec = KernelSpec.from_scene(scene)
-    kern = get_kernel(spec)
     p = kernel_parameters(scene)
     st = initial_state(scene)
     n_steps, every = scene.n_steps, scene.record_every
@@ -400,8 +397,8 @@ def simulate_dem(
     rec = new_recording(block, scene.bearing.n_balls)
 
     t0 = time.perf_counter()
-    # compile, or load from the on-disk cache, before anything runs
-    kern = prepare(kern, spec, {"start": (p, st), "run": (p, st, rec, 0, 0, every, 0)})
+    # compiled, or loaded from the on-disk cache (without numba when it can), before anything runs
+    kern = get_kernel(spec, calls={"start": (p, st), "run": (p, st, rec, 0, 0, every, 0)})
     kern.start(p, st)
     compile_s = time.perf_counter() - t0
 
@@ -417,7 +414,7 @@ def simulate_dem(
     step = rec_index = flushed = 0
     while step < n_steps:
         if stream is not None and rec_index == block:
-            stream.write(*_block_tables(scene, rec_index, rec, electrics))
+            stream.write(*map(arrow_table, _block_tables(scene, rec_index, rec, electrics)))
             rec_index, flushed = 0, flushed + 1
         free = block - rec_index
         # run until the buffer is full (its last instant is recorded at step k every - 1)
@@ -440,9 +437,9 @@ def simulate_dem(
 
     balls = signals = None
     if stream is None:
-        balls, signals = _block_tables(scene, rec_index, rec, electrics)
+        balls, signals = map(to_frame, _block_tables(scene, rec_index, rec, electrics))
     elif rec_index or not flushed:
-        stream.write(*_block_tables(scene, rec_index, rec, electrics))
+        stream.write(*map(arrow_table, _block_tables(scene, rec_index, rec, electrics)))
     timings = dem_timings(scene, limit, spec.key, compile_s, run_s, run_cpu_s)
     timings["process_to_first_step_s"] = first_step_s
     if electrics is not None:
@@ -474,7 +471,7 @@ def dem_result(scene, rec, rec_index, limit, kernel, compile_s, run_s, run_cpu_s
     ``rec`` (a :class:`~.records.Recording`, the whole run): its tables, timings and, with the
     electrical output, the electrical columns (one block of :class:`_BlockElectrics`)."""
     electrics = _BlockElectrics(scene) if scene.outputs.electrical else None
-    balls, signals = _block_tables(scene, rec_index, rec, electrics)
+    balls, signals = map(to_frame, _block_tables(scene, rec_index, rec, electrics))
     timings = dem_timings(scene, limit, kernel, compile_s, run_s, run_cpu_s)
     if electrics is not None:
         electrics.finish(timings, rec_index)

@@ -17,7 +17,8 @@ PERIOD_NODES) = 1.2e-4 rad for the seed's bearing). Where a contact
 opens or closes within the stencil the columns are not smooth (Hertz: force ~ delta^{3/2}, the
 contact radius and a ball's conductance ~ delta^{1/2}, Hamrock-Brewe and seed eq. 16), so the
 instants within :data:`SMOOTH_MARGIN` grid intervals of a change of the contact pattern are
-solved one by one, as the per-instant tier does (0.8 % of them for the seed's scene). The
+solved one by one, as the per-instant tier does (0.8 % of them for the seed's scene), each
+Newton started from the instant's interpolated ring shift. The
 columns that are a maximum or a count over the balls (largest ball load, loaded balls, largest
 current density) are formed at each instant from the interpolated ball columns, not
 interpolated themselves (a maximum has a kink where the largest ball changes). The tables agree
@@ -31,7 +32,6 @@ import math
 import time
 
 import numpy as np
-import pandas as pd
 from numba import njit
 
 from signatelec.config.scene import Scene
@@ -164,15 +164,20 @@ class PeriodMap:
         z = self.scene.bearing.n_balls
         n_rec = t.size
         theta = self.cage_angle_rad(self.scene, t)
-        # one row per ball and instant: an instant's values are written in one stretch
-        out_ball = np.empty((n_rec * z, len(self.ball_names)))
-        out_signal = np.empty((n_rec, len(self.signal_names)))
-        angle = np.empty(n_rec * z)
+        n_rows = n_rec * z
+        # [row, column]: an instant's values are written in one stretch (the tables take the
+        # columns as strided views); each ball's largest current density is not kept
+        out_ball = np.empty((n_rows, len(self.ball_names) - ("_density" in self.ball_names)))
+        out_signal = np.empty((len(self.signal_names), n_rec))
+        time_rows = np.empty(n_rows)
+        ball_rows = np.empty(n_rows, np.int32)
+        angle = np.empty(n_rows)
         loaded = np.empty(n_rec, np.int32)
         largest = np.zeros((2, n_rec))
         node = np.empty(n_rec, np.int64)
         _map_instants(
             theta,
+            t,
             self.theta_ref_rad,
             self.period_rad,
             PERIOD_NODES,
@@ -183,23 +188,25 @@ class PeriodMap:
             self.ball_names.index("_density") if "_density" in self.ball_names else -1,
             out_ball,
             out_signal,
+            time_rows,
+            ball_rows,
             angle,
             loaded,
             largest,
             node,
         )
-        return out_ball, out_signal, angle, loaded, largest, node
+        return out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node
 
     def columns(self, t) -> tuple[dict, dict, dict]:
         """The tables' columns at the instants ``t`` (as
         :func:`~signatelec.engines.quasistatic.tier.instant_columns`) and the time spent."""
         t0 = time.perf_counter()
-        t = np.asarray(t, dtype=float)
+        t = np.ascontiguousarray(t, dtype=float)
         z = self.scene.bearing.n_balls
         n_rec = t.size
-        out_ball, out_signal, angle, loaded, largest, node = self._map(t)
-        mapped_b = dict(zip(self.ball_names, out_ball.T, strict=True))
-        mapped_s = dict(zip(self.signal_names, out_signal.T, strict=True))
+        out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node = self._map(t)
+        mapped_b = dict(zip(self.ball_names, out_ball.T, strict=False))  # not _density
+        mapped_s = dict(zip(self.signal_names, out_signal, strict=True))
         derived = {
             "loaded_balls": loaded,
             "max_ball_load_n": largest[0],
@@ -208,9 +215,9 @@ class PeriodMap:
         balls = {}
         for name in self.ball_order:
             if name == "time_s":
-                balls[name] = np.repeat(t, z)
+                balls[name] = time_rows
             elif name == "ball":
-                balls[name] = np.tile(np.arange(z, dtype=np.int32), n_rec)
+                balls[name] = ball_rows
             elif name == "angle_rad":
                 balls[name] = angle
             elif name in self.ball_constants:
@@ -222,8 +229,7 @@ class PeriodMap:
             if name == "time_s":
                 signals[name] = t
             elif name == "phase":
-                codes = np.full(n_rec, PHASES.index("steady"))
-                signals[name] = pd.Categorical.from_codes(codes, PHASES)
+                signals[name] = np.full(n_rec, PHASES.index("steady"), np.int8)
             elif name == "delta_r_m":
                 signals[name] = np.hypot(signals["inner_x_m"], signals["inner_y_m"])
             elif name == "epsilon":
@@ -238,14 +244,18 @@ class PeriodMap:
         spent = {"map_s": time.perf_counter() - t0}
         rough = np.flatnonzero(self.rough[node])
         if rough.size:
-            # near a contact that opens or closes: the tier's own per-instant solution
+            # near a contact that opens or closes: the tier's own per-instant solution, each
+            # instant's Newton started from its interpolated shift (one or two steps)
             psi = ball_angles_rad(self.cage_angle_rad(self.scene, t[rough]), z)
-            exact_b, exact_s, exact_spent = self.solve(self.scene, t[rough], psi)
+            start = np.stack([signals["inner_x_m"][rough], signals["inner_y_m"][rough]], axis=1)
+            exact_b, exact_s, exact_spent = self.solve(self.scene, t[rough], psi, start)
             rows = (rough[:, None] * z + np.arange(z)).ravel()
+            # the constant columns hold the same constant there (read-only, not written)
             for name, values in exact_b.items():
-                balls[name][rows] = values
+                if name not in self.ball_constants:
+                    balls[name][rows] = values
             for name, values in exact_s.items():
-                if name != "phase":
+                if name != "phase" and name not in self.signal_constants:
                     signals[name][rough] = values
             for key, value in exact_spent.items():
                 spent[key] = spent.get(key, 0.0) + value
@@ -260,19 +270,24 @@ def _constant(values) -> bool:
 
 
 def _full(n: int, value) -> np.ndarray:
-    return np.zeros(n) if value == 0.0 else np.full(n, value)
+    """A column holding ``value`` at every row: one value read-only repeated (stride 0), not n
+    written (the tier's kinematic speeds and zero tangential forces are constant by
+    construction; a table column is read, pandas copies before it writes)."""
+    return np.broadcast_to(np.asarray(value, dtype=float), (n,))
 
 
 @njit(cache=True, error_model="numpy")
 def _map_instants(
-    theta, theta_ref, period, n, margin, grid_ball, grid_signal, inner_col, density_col,
-    out_ball, out_signal, angle, loaded, largest, node,
+    theta, t, theta_ref, period, n, margin, grid_ball, grid_signal, inner_col, density_col,
+    out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node,
 ):  # fmt: skip
-    """Interpolate the grid at each instant of cage angle ``theta`` (see PeriodMap); from the
-    ball columns ``inner_col`` (inner force) and ``density_col`` (each ball's largest current
-    density, -1: none), the loaded balls and the largest of each over the balls."""
+    """Interpolate the grid at each instant of cage angle ``theta`` (see PeriodMap) into
+    ``out_ball`` [row, column] and ``out_signal`` [column, instant], with each row's time, ball
+    and angle; from the ball columns ``inner_col`` (inner force) and ``density_col`` (each
+    ball's largest current density, the grid's last column, not written out; -1: none), the
+    loaded balls and the largest of each over the balls."""
     z = grid_ball.shape[1]
-    n_ball = grid_ball.shape[2]
+    n_out = out_ball.shape[1]
     two_pi = 2.0 * math.pi
     step = two_pi / z
     for i in range(theta.shape[0]):
@@ -292,9 +307,9 @@ def _map_instants(
             g0, g1 = grid_signal[a, c], grid_signal[a + 1, c]
             g2, g3 = grid_signal[a + 2, c], grid_signal[a + 3, c]
             if g0 == g1 and g1 == g2 and g2 == g3:  # an infinite resistance stays one
-                out_signal[i, c] = g1
+                out_signal[c, i] = g1
             else:
-                out_signal[i, c] = w0 * g0 + w1 * g1 + w2 * g2 + w3 * g3
+                out_signal[c, i] = w0 * g0 + w1 * g1 + w2 * g2 + w3 * g3
         shift = int(m % z)
         n_loaded = 0
         largest_load = 0.0
@@ -306,10 +321,12 @@ def _map_instants(
             if s >= z:
                 s -= z
             row = i * z + k
+            time_rows[row] = t[i]
+            ball_rows[row] = k
             psi = first + step * k
             angle[row] = psi - two_pi if psi > math.pi else psi
             # ball columns are finite or NaN (a potential out of the circuit): no inf
-            for c in range(n_ball):
+            for c in range(n_out):
                 out_ball[row, c] = (
                     w0 * grid_ball[a, s, c]
                     + w1 * grid_ball[a + 1, s, c]
@@ -320,7 +337,13 @@ def _map_instants(
             n_loaded += load > 0.0
             largest_load = max(largest_load, load)
             if density_col >= 0:
-                largest_density = max(largest_density, out_ball[row, density_col])
+                density = (
+                    w0 * grid_ball[a, s, density_col]
+                    + w1 * grid_ball[a + 1, s, density_col]
+                    + w2 * grid_ball[a + 2, s, density_col]
+                    + w3 * grid_ball[a + 3, s, density_col]
+                )
+                largest_density = max(largest_density, density)
         loaded[i] = n_loaded
         largest[0, i] = largest_load
         largest[1, i] = largest_density

@@ -73,12 +73,11 @@ import math
 import time
 
 import numpy as np
-import pandas as pd
 
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.scene import Scene
 from signatelec.engines.quasistatic.period import PeriodMap, ball_angles_rad, use_period_map
-from signatelec.engines.results import PHASES, SimulationResult, phase_times
+from signatelec.engines.results import PHASES, SimulationResult, phase_times, to_frame
 from signatelec.physics.contact import NORMAL_LAWS
 from signatelec.physics.defects import clearance_offsets_m, tabulated_loads_n
 from signatelec.physics.laws import scene_law
@@ -104,6 +103,9 @@ def inner_ring_angle_rad(scene: Scene, time_s) -> np.ndarray:
     _, t2, t3 = phase_times(scene)
     omega = scene.operating.omega_rad_s
     ramp = t3 - t2
+    if t.size and t.min() >= t3:  # the tier's instants: the spin-up is over (one pass, not six)
+        done = 0.5 * omega * (ramp - ramp / math.pi * math.sin(math.pi)) if ramp > 0.0 else 0.0
+        return done + omega * (t - t3)
     during = np.clip(t - t2, 0.0, ramp)
     if ramp > 0.0:
         spin_up = 0.5 * omega * (during - ramp / math.pi * np.sin(math.pi * during / ramp))
@@ -127,8 +129,11 @@ def steady_record_times_s(scene: Scene) -> np.ndarray:
     """The DEM's recorded instants ``k * record_every * dt_s`` that fall in the steady phase."""
     every, dt = scene.record_every, scene.numerics.dt_s
     n_rec = scene.n_steps // every
-    t = np.arange(1, n_rec + 1) * every * dt
-    return t[t > phase_times(scene)[2]]
+    end = phase_times(scene)[2]
+    # from a few instants before the set-up's end, the same products k * every * dt as all
+    first = max(1, int(end / (every * dt)) - 2)
+    t = np.arange(first, n_rec + 1) * every * dt
+    return t[np.searchsorted(t, end, side="right") :]
 
 
 # --- equilibrium ---------------------------------------------------------------------------------
@@ -167,7 +172,9 @@ def abnormal_conditions(scene: Scene, ball_angle_rad, time_s):
     return clearance, load
 
 
-def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None, time_s=None) -> RingSolution:
+def solve_ring_equilibrium(
+    scene: Scene, ball_angle_rad, unit_xy=None, time_s=None, start_xy_m=None
+) -> RingSolution:
     """Quasi-static equilibrium of the scene's inner ring at ball angles (T, Z).
 
     The equations of :func:`signatelec.physics.quasistatic.solve_equilibrium_over_time` with the
@@ -175,7 +182,8 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None, time_s=No
     clearance, speed, centrifugal force and gravity, solved by the same compiled Newton
     (:mod:`signatelec.physics.ring_equilibrium`) to ``TIER_RTOL``. ``unit_xy``: the balls'
     ``(sin psi, -cos psi)`` when the caller has them; ``time_s`` (T,) the instants, which a scene
-    with defects or abnormal loads needs (:func:`abnormal_conditions`).
+    with defects or abnormal loads needs (:func:`abnormal_conditions`); ``start_xy_m`` (T, 2)
+    each instant's starting shift (instants far apart), else each starts from the ones before.
     """
     op, e = scene.operating, scene.effects
     coef, n = scene_law(scene)
@@ -195,15 +203,17 @@ def solve_ring_equilibrium(scene: Scene, ball_angle_rad, unit_xy=None, time_s=No
         unit_xy=unit_xy,
         load_xy_n=load,
         cage=e.cage,
+        initial_shift_xy_m=start_xy_m,
     )
 
 
 # --- the tier ------------------------------------------------------------------------------------
 
 
-def instant_columns(scene: Scene, t, psi) -> tuple[dict, dict, dict]:
+def instant_columns(scene: Scene, t, psi, start_xy_m=None) -> tuple[dict, dict, dict]:
     """The tables' columns (``balls`` raveled, ``signals``) of the quasi-static state at each
-    instant of ``t`` with ball angles ``psi`` (T, Z), solved instant by instant, and the time its
+    instant of ``t`` with ball angles ``psi`` (T, Z), solved instant by instant (``start_xy_m``
+    (T, 2): each instant's starting shift), and the time its
     parts took (``run_s`` the equilibrium, ``electrical_s``). The electrical network warns of no
     current density: the caller warns once for the run (:func:`density_warning`)."""
     b, op = scene.bearing, scene.operating
@@ -211,7 +221,7 @@ def instant_columns(scene: Scene, t, psi) -> tuple[dict, dict, dict]:
     n_rec = t.size
     t0 = time.perf_counter()
     ux, uy = np.sin(psi), -np.cos(psi)
-    eq = solve_ring_equilibrium(scene, psi, (ux, uy), t)
+    eq = solve_ring_equilibrium(scene, psi, (ux, uy), t, start_xy_m)
     spent = {"run_s": time.perf_counter() - t0}
 
     omega = op.omega_rad_s
@@ -237,7 +247,7 @@ def instant_columns(scene: Scene, t, psi) -> tuple[dict, dict, dict]:
     delta_r = np.hypot(ix, iy)
     signals = {
         "time_s": t,
-        "phase": pd.Categorical.from_codes(np.full(n_rec, PHASES.index("steady")), PHASES),
+        "phase": _steady_phase(n_rec),
         "inner_x_m": ix,
         "inner_y_m": iy,
         "delta_r_m": delta_r,
@@ -267,6 +277,12 @@ def instant_columns(scene: Scene, t, psi) -> tuple[dict, dict, dict]:
             balls[name] = getattr(el, name).ravel()
         spent["electrical_s"] = time.perf_counter() - t0
     return balls, signals, spent
+
+
+def _steady_phase(n: int):
+    import pandas as pd
+
+    return pd.Categorical.from_codes(np.full(n, PHASES.index("steady")), PHASES)
 
 
 def density_warning(scene: Scene, densities: list[np.ndarray]) -> None:
@@ -334,10 +350,10 @@ def simulate_quasistatic(
             spent[key] = spent.get(key, 0.0) + value
         if "max_current_density_a_m2" in s:
             densities.append(s["max_current_density_a_m2"])
-        balls, signals = pd.DataFrame(b, copy=False), pd.DataFrame(s, copy=False)
         if stream is not None:
-            stream.write(balls, signals)
-            balls = signals = None
+            stream.write(b, s)
+        else:
+            balls, signals = to_frame(b, copy=False), to_frame(s, copy=False)
     density_warning(scene, densities)
     run_s = spent.pop("run_s")
     timings = {
