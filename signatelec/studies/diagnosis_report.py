@@ -1,10 +1,11 @@
 """The diagnosis study's report: acceptance table, detection curves, the README's signatures.
 
 Written by :func:`signatelec.studies.diagnosis.run_study` into docs/diagnosis:
-``diagnosis.parquet`` (every figure of the tables), ``diagnosis.md``, ``diagnosis.png``
-(detection probability against spall length and against noise) and ``signatures.png`` (per
-condition, the resistance over a few cage revolutions and its envelope spectrum with the
-characteristic lines marked).
+``diagnosis.parquet`` (every figure of the tables, the false alarms and the load state with a
+defect of :mod:`signatelec.studies.diagnosis_alarms` among them), ``diagnosis.md``,
+``diagnosis.png`` (detection probability against spall length and against noise) and
+``signatures.png`` (per condition, the resistance over a few cage revolutions and its envelope
+spectrum with the characteristic lines marked).
 """
 
 from __future__ import annotations
@@ -132,8 +133,12 @@ def markdown(table: pd.DataFrame, pred: pd.DataFrame, info: dict) -> str:
         )
     lines += [
         "",
-        "F_r by the default load-state model (trained on healthy seed-bearing runs only; the "
-        "6205 rows have none).",
+        "F_r by the default load-state model as `signatelec estimate` answers: where the "
+        "condition model calls healthy, its healthy model (the load-state study's runs); where "
+        "it calls a fault, its faulty model (those runs and the condition model's training runs "
+        "of the seed's bearing, healthy, spalled and unbalanced). The 6205 rows have none (the "
+        "load-state models know the seed's bearing only). Under an unbalance F_r is the static "
+        "load.",
         "",
         "## Detection against noise (every test run measured again at each noise level)",
         "",
@@ -292,14 +297,34 @@ def signature_runs(out: Path) -> pd.DataFrame:
     return pd.DataFrame(picks).assign(bearing="seed")
 
 
-def report(pred: pd.DataFrame, report_dir: Path, out: Path, info: dict, model=None) -> dict:
-    """Write the report files; returns the acceptance row of all bearings."""
+def report(
+    pred: pd.DataFrame,
+    report_dir: Path,
+    out: Path,
+    info: dict,
+    model=None,
+    alarms: pd.DataFrame | None = None,
+) -> dict:
+    """Write the report files; returns the acceptance row of all bearings. ``alarms``: the
+    false-alarm runs' predictions (:mod:`signatelec.studies.diagnosis_alarms`)."""
+    from signatelec.studies import diagnosis_alarms
+
     report_dir.mkdir(parents=True, exist_ok=True)
     table = figures_table(pred)
+    text = markdown(table, pred, info)
+    load = diagnosis_alarms.load_error_figures(pred)
+    parts = [table, load.rename(columns={"condition": "group"}).assign(table="load")]
+    if alarms is not None:
+        alarm = diagnosis_alarms.alarm_figures(alarms)
+        parts.append(alarm.assign(table="alarms"))
+        extra = diagnosis_alarms.markdown(alarm, load, bool(info.get("quick")))
+        head, tail = text.split("## Detection against noise", 1)
+        text = head + "\n".join(extra) + "\n## Detection against noise" + tail
+    table = pd.concat(parts, ignore_index=True)
     buf = io.BytesIO()
     table.to_parquet(buf, index=False)
     write_bytes_atomic(report_dir / "diagnosis.parquet", buf.getvalue())
-    write_bytes_atomic(report_dir / "diagnosis.md", markdown(table, pred, info).encode())
+    write_bytes_atomic(report_dir / "diagnosis.md", text.encode())
     plot_curves(table, report_dir / "diagnosis.png")
     plot_signatures(signature_runs(out), report_dir / "signatures.png")
     acc = table[(table["table"] == "acceptance") & (table["group"] == "all")]
