@@ -93,6 +93,29 @@ def figures_table(pred: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def length_figures(pred: pd.DataFrame) -> pd.DataFrame:
+    """The spall-length estimate on the acceptance windows whose spall was detected and typed
+    right, per location and for all: windows, median and mean relative error, the share of
+    true lengths inside the interval (nominal 90 %)."""
+    acc = pred[pred["acceptance"] & pred["condition"].isin(SPALLS)]
+    acc = acc[acc["pred_condition"] == acc["condition"]]
+    rows = []
+    for group, g in [("all", acc), *acc.groupby("condition", observed=True)]:
+        truth = g["spall_length_m"].to_numpy()
+        err = np.abs(g["pred_spall_length_m"].to_numpy() / truth - 1.0)
+        inside = (g["pred_spall_length_m_low"] <= truth) & (truth <= g["pred_spall_length_m_high"])
+        rows.append(
+            {
+                "group": str(group),
+                "windows": int(len(g)),
+                "median_error": float(np.median(err)) if err.size else float("nan"),
+                "mean_error": _rate(err),
+                "coverage": _rate(inside.to_numpy()),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
 def _pct(x) -> str:
     return "-" if x is None or not np.isfinite(x) else f"{100 * x:.1f} %"
 
@@ -161,6 +184,18 @@ def markdown(table: pd.DataFrame, pred: pd.DataFrame, info: dict) -> str:
     for r in table[table["table"] == "length"].itertuples():
         lines.append(
             f"| {r.group} | {r.windows} | {_pct(r.wide_detected)} | {_pct(r.wide_type_right)} |"
+        )
+    lines += [
+        "",
+        "## Spall length (acceptance windows detected and typed right)",
+        "",
+        "| spall | windows | median error | mean error | true length inside the 90 % interval |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for r in length_figures(pred).itertuples():
+        lines.append(
+            f"| {r.group} | {r.windows} | {_pct(r.median_error)} | {_pct(r.mean_error)} | "
+            f"{_pct(r.coverage)} |"
         )
     cm = pd.crosstab(
         pred.loc[pred["acceptance"], "condition"], pred.loc[pred["acceptance"], "pred_condition"]
@@ -313,7 +348,11 @@ def report(
     table = figures_table(pred)
     text = markdown(table, pred, info)
     load = diagnosis_alarms.load_error_figures(pred)
-    parts = [table, load.rename(columns={"condition": "group"}).assign(table="load")]
+    parts = [
+        table,
+        load.rename(columns={"condition": "group"}).assign(table="load"),
+        length_figures(pred).assign(table="spall_length"),
+    ]
     if alarms is not None:
         alarm = diagnosis_alarms.alarm_figures(alarms)
         parts.append(alarm.assign(table="alarms"))
