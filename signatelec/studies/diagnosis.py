@@ -69,6 +69,13 @@ TRAIN_DRAWS = 2
 NOISE_SCAN = (5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2)
 #: First spawn-key words of the measurement draws (training, acceptance, noise scan).
 TRAIN_KEY, ACCEPT_KEY, SCAN_KEY = 500, 501, 600
+#: Held-out healthy runs per bearing for the false-alarm rate (2 x 175 = 350 runs: with none
+#: flagged the one-sided 95 % upper bound is 0.85 %, :mod:`signatelec.studies.diagnosis_alarms`).
+ALARM_RUNS = 175
+#: Runs per bearing of the quick variant (fast preset): a pipeline check.
+QUICK_ALARM_RUNS = 2
+#: Spawn-key word of the false-alarm runs' measurement draws.
+ALARM_KEY = 700
 #: Seed offset of the false-alarm runs (their draws share none with the training or test runs).
 ALARM_SEED_OFFSET = 1000
 SHIPPED_COLUMNS = ("run_id", "bearing", "noise_fraction", "radial_load_n", "condition")
@@ -286,6 +293,41 @@ def load_predictions(table: pd.DataFrame) -> np.ndarray:
     return out
 
 
+def alarm_predictions(
+    out: Path,
+    spec_path: Path,
+    model,
+    *,
+    quick: bool,
+    reuse: bool = True,
+    workers: int = 0,
+    log: Log | None = None,
+) -> pd.DataFrame:
+    """Generate (or resume) the false-alarm runs, measure them and ask the condition
+    ``model``: one row per run with its labels, features and ``pred_`` columns. The measured
+    rows are cached in ``out/features_alarms.parquet`` (read again when ``reuse``)."""
+    log = log or _quiet
+    n = QUICK_ALARM_RUNS if quick else ALARM_RUNS
+    path = out / "features_alarms.parquet"
+    rows = pd.read_parquet(path) if reuse and path.is_file() else None
+    if rows is None or len(rows) != n * len(BEARINGS):
+        parts = []
+        for bearing in BEARINGS:
+            spec = study_spec(spec_path, bearing, True, quick, healthy_runs=n)
+            d = out / f"runs_{bearing}" / "alarms"
+            t0 = time.perf_counter()
+            summary = generate_dataset(spec, d, workers=workers)
+            log(
+                f"generate {spec.name}: {summary.generated} new runs, {summary.n_traces} in all, "
+                f"{time.perf_counter() - t0:.0f} s"
+            )
+            runs = load_runs(d, log)
+            parts += measured_rows(runs, bearing, 1, fixed_draw(ACCEPT_NOISE), ALARM_KEY)
+        rows = pd.DataFrame(parts)
+        rows.to_parquet(path, index=False)
+    return predict_rows(model, rows)
+
+
 def shipped_condition_table(train: pd.DataFrame) -> pd.DataFrame:
     """The default condition model's training table: the first measured window of every
     training run, its labels and the condition and load-state models' features, numbers as
@@ -319,7 +361,6 @@ def run_study(
     from signatelec.estimation.condition import ConditionEstimator
     from signatelec.estimation.training import train_condition
     from signatelec.io import write_bytes_atomic
-    from signatelec.studies.diagnosis_alarms import alarm_predictions
     from signatelec.studies.diagnosis_report import report
 
     t_start = time.perf_counter()
@@ -337,7 +378,9 @@ def run_study(
         pred = predict_rows(model, test)
         pred["hertz_width_m"] = contact_widths_m(pred)
         pred["pred_load_radial_load_n"] = load_predictions(pred)
-        alarms = alarm_predictions(out, spec_path, model, quick=quick, workers=workers, log=log)
+        alarms = alarm_predictions(
+            out, spec_path, model, quick=quick, reuse=reuse, workers=workers, log=log
+        )
     pred.to_parquet(out / "predictions_test.parquet", index=False)
     alarms.to_parquet(out / "predictions_alarms.parquet", index=False)
     if ship_to is not None:

@@ -3,15 +3,16 @@ defect: two parts of the diagnosis study (:mod:`signatelec.studies.diagnosis`).
 
 **False alarms.** A false-alarm rate of at most 1 % cannot be shown on a few dozen runs: with
 none of n runs flagged, the one-sided 95 % upper bound on the rate is 1 - 0.05^(1/n) (about
-3/n, the "rule of three"), below 1 % only from n = 299. :func:`alarm_predictions` generates
-:data:`ALARM_RUNS` held-out healthy runs per bearing (the seed's and the 6205; F_r, clearance,
-speed and ball phase drawn from the training design's ranges with their own seed; the paper's
-fidelity, 0.2 s at 20 kHz, through the ensemble kernel), measures each once over its whole
-window at the acceptance condition (0.2 % white noise, 0.05 % drift, its own noise draw) and
-asks the condition model. The unit is the run: each is an independent draw of the load state,
-the clearance, the speed, the phase and the noise, where windows of one run are not.
-:func:`alarm_figures` counts the runs flagged (called anything but healthy) and gives the
-exact one-sided upper bound of :func:`clopper_pearson_upper`.
+3/n, the "rule of three"), below 1 % only from n = 299.
+:func:`signatelec.studies.diagnosis.alarm_predictions` generates
+:data:`~signatelec.studies.diagnosis.ALARM_RUNS` held-out healthy runs per bearing (the seed's
+and the 6205; F_r, clearance, speed and ball phase drawn from the training design's ranges
+with their own seed; the paper's fidelity, 0.2 s at 20 kHz, through the ensemble kernel),
+measures each once over its whole window at the acceptance condition (0.2 % white noise,
+0.05 % drift, its own noise draw) and asks the condition model. The unit is the run: each is an
+independent draw of the load state, the clearance, the speed, the phase and the noise, where
+windows of one run are not. :func:`alarm_figures` counts the runs flagged (called anything but
+healthy) and gives the exact one-sided upper bound of :func:`clopper_pearson_upper`.
 
 **Load state with a defect.** :func:`load_error_figures` gives the F_r MAPE of the default
 load-state model per condition with a bootstrap 95 % interval over the held-out runs (runs
@@ -24,29 +25,16 @@ the static part.
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 from scipy.stats import beta
 
 from signatelec.estimation.condition import SPALLS
 
-#: Held-out healthy runs per bearing for the false-alarm rate (2 x 175 = 350 runs: with none
-#: flagged the one-sided 95 % upper bound is 0.85 %).
-ALARM_RUNS = 175
-#: Runs per bearing of the quick variant (fast preset): a pipeline check.
-QUICK_ALARM_RUNS = 2
-#: Spawn-key word of the false-alarm runs' measurement draws.
-ALARM_KEY = 700
 #: One-sided confidence of the upper bounds.
 CONFIDENCE = 0.95
 #: Bootstrap resamples of the F_r MAPE intervals.
 BOOTSTRAP = 4000
-
-Log = Callable[[str], None]
 
 
 def clopper_pearson_upper(flagged: int, n: int, confidence: float = CONFIDENCE) -> float:
@@ -58,39 +46,6 @@ def clopper_pearson_upper(flagged: int, n: int, confidence: float = CONFIDENCE) 
     if flagged >= n:
         return 1.0
     return float(beta.ppf(confidence, flagged + 1, n - flagged))
-
-
-def alarm_predictions(
-    out: Path, spec_path: Path, model, *, quick: bool, workers: int = 0, log: Log | None = None
-) -> pd.DataFrame:
-    """Generate (or resume) the false-alarm runs, measure them and ask the condition
-    ``model``: one row per run with its labels, features and ``pred_`` columns. The measured
-    rows are cached in ``out/features_alarms.parquet``."""
-    from signatelec.data import generate as generate_dataset
-    from signatelec.studies.diagnosis import BEARINGS, measured_rows, predict_rows, study_spec
-    from signatelec.studies.load_state import fixed_draw, load_runs
-    from signatelec.studies.load_state_metrics import ACCEPT_NOISE
-
-    log = log or (lambda msg: None)
-    n = QUICK_ALARM_RUNS if quick else ALARM_RUNS
-    path = out / "features_alarms.parquet"
-    rows = pd.read_parquet(path) if path.is_file() else None
-    if rows is None or len(rows) != n * len(BEARINGS):
-        parts = []
-        for bearing in BEARINGS:
-            spec = study_spec(spec_path, bearing, True, quick, healthy_runs=n)
-            d = out / f"runs_{bearing}" / "alarms"
-            t0 = time.perf_counter()
-            summary = generate_dataset(spec, d, workers=workers)
-            log(
-                f"generate {spec.name}: {summary.generated} new runs, {summary.n_traces} in all, "
-                f"{time.perf_counter() - t0:.0f} s"
-            )
-            runs = load_runs(d, log)
-            parts += measured_rows(runs, bearing, 1, fixed_draw(ACCEPT_NOISE), ALARM_KEY)
-        rows = pd.DataFrame(parts)
-        rows.to_parquet(path, index=False)
-    return predict_rows(model, rows)
 
 
 def alarm_figures(pred: pd.DataFrame) -> pd.DataFrame:
