@@ -6,9 +6,10 @@ Usage::
                                              [--workers N] [--ship]
 
 Runs :func:`signatelec.studies.diagnosis.run_study` (its docstring lists the steps): the runs of
-``datasets/diagnosis.toml`` for the seed's bearing and the 6205 and their held-out
-paper-fidelity test runs go to OUT (default ``out/diagnosis``; generation resumes where it
-stopped, the measured features are reused unless ``--fresh``), the report (``diagnosis.md``,
+``datasets/diagnosis.toml`` for the seed's bearing and the 6205, their held-out
+paper-fidelity test runs and the 350 held-out healthy runs of the false-alarm bound go to OUT
+(default ``out/diagnosis``; generation resumes where it stopped, the measured features are
+reused unless ``--fresh``), the report (``diagnosis.md``,
 ``diagnosis.png``, ``diagnosis.parquet``, ``signatures.png``) to DIR (default
 ``docs/diagnosis``). ``signatelec study diagnosis --out DIR`` runs the same into one directory.
 ``--ship`` also writes the default condition model's training table

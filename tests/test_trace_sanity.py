@@ -222,6 +222,55 @@ def test_start_up_trimmed_and_step_refused(model_file, tmp_path, capsys):
     _refused(code, err, "level not steady")
 
 
+def test_recurrent_events_kept_transient_still_trimmed():
+    """Dips of 3 % over one ball pass every twelfth pass (a ball's spall in the load zone once
+    per cage revolution) recur through the trace: with a condition model to judge them the
+    trace is kept whole, without one they are a transient; a start-up is trimmed either way."""
+    df = _example()
+    t, r = df["time_s"].to_numpy(), df["resistance_ohm"].to_numpy()
+    f_bp = expected_ball_pass_hz(500.0)
+    passes = np.floor(t * f_bp).astype(int)
+    dips = r * np.where((passes % 12 == 6), 0.97, 1.0)
+    trace = prepare_trace(t, dips, 500.0, source="dips")
+    kept = screen_trace(trace, 500.0, defect_lines=True).trace
+    assert kept.resistance_ohm.size == trace.resistance_ohm.size and not kept.repairs
+    try:
+        cut = screen_trace(trace, 500.0).trace
+        assert cut.resistance_ohm.size < trace.resistance_ohm.size
+    except TraceError as exc:
+        assert "level not steady" in str(exc)
+    start = r * (1 + 0.3 * np.clip(1 - t / 0.02, 0, None))
+    trace = prepare_trace(t, start, 500.0, source="start")
+    assert "trimmed a transient" in screen_trace(trace, 500.0, defect_lines=True).trace.repairs[0]
+
+
+def test_bearing_places_the_ripple(model_file, tmp_path, capsys):
+    """--bearing 6205: a ripple at the 6205's ball-pass frequency Z/2 f_s (1 - d/D) (Harris
+    and Kotzalas 2006, eq. 7.21 at contact angle 0) is found there, and the load state is left
+    out (the model learnt the seed's bearing); the seed's geometry expects it elsewhere and
+    refuses the trace; an unknown designation is one line, exit 2."""
+    from signatelec.config.catalogue import catalogue_bearing
+
+    b = catalogue_bearing("6205")
+    f_s = 500.0 / (2 * math.pi)
+    pitch_d = b.outer_race_radius_m + b.inner_race_radius_m
+    f_bp = 0.5 * b.n_balls * f_s * (1 - 2 * b.ball_radius_m / pitch_d)
+    t = np.arange(4000) / 20000.0
+    rng = np.random.default_rng(3)
+    r = 2.5e-3 * (1 + 2e-3 * np.cos(2 * np.pi * f_bp * t) + 2e-3 * rng.standard_normal(t.size))
+    path = _write(tmp_path, "r6205", r, t)
+    code, text, err = _estimate(capsys, path, 500.0, model_file, "--bearing", "6205")
+    assert code == 0, err
+    found = re.search(r"found ([\d.]+) Hz \(kinematic ([\d.]+) Hz\)", text)
+    assert float(found.group(2)) == pytest.approx(f_bp, rel=1e-3)
+    assert abs(float(found.group(1)) - f_bp) < 1.0 / 0.2
+    assert "radial load" not in text and "learnt the seed's bearing only" in text
+    code, _, err = _estimate(capsys, path, 500.0, model_file)
+    _refused(code, err, "--omega 500")
+    code, _, err = _estimate(capsys, EXAMPLE, 500.0, model_file, "--bearing", "6209x")
+    _refused(code, err, "--bearing '6209x'", "unknown bearing", "6205")
+
+
 # --- the in-domain score ------------------------------------------------------------------------
 
 

@@ -38,9 +38,20 @@ def trace_columns(command):
     "training table, on first use).",
 )
 @click.option("--out", "out", type=str, default=None, help="Write the estimate: .json or .parquet.")
+@click.option(
+    "--bearing",
+    "designation",
+    type=str,
+    default=None,
+    help="Catalogue designation of the bearing (`signatelec bearings`): its geometry places "
+    "the defects' characteristic frequencies (default: the seed's bearing; the load state is "
+    "estimated for the seed's bearing only).",
+)
 @trace_columns
 @click.option("--quiet", is_flag=True, help="No summary.")
-def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_column, quiet):
+def estimate(
+    trace_file, omega_rad_s, model_path, out, designation, time_column, resistance_column, quiet
+):
     """Estimate F_r, epsilon, clearance and regime from a resistance trace (CSV or Parquet).
 
     The trace needs at least 5 ball passes; isolated missing samples, small gaps and uneven
@@ -57,6 +68,15 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
 
     if out is not None:
         check_writable_file(out, suffixes=(".json", ".parquet"))
+    bearing = None
+    if designation is not None:
+        from signatelec.config.catalogue import CatalogueError, catalogue_bearing
+
+        try:
+            bearing = catalogue_bearing(designation)
+        except CatalogueError as exc:
+            # the catalogue names the scene key; here the option is the field
+            raise InputError(f"--bearing {designation!r}: {str(exc).split(': ', 1)[-1]}") from None
     from signatelec.io import TRACE_MAX_BYTES, input_size_problem
 
     problem = input_size_problem(trace_file, TRACE_MAX_BYTES)
@@ -75,7 +95,7 @@ def estimate(trace_file, omega_rad_s, model_path, out, time_column, resistance_c
     except ModelError as exc:
         raise InputError(str(exc)) from None
     try:
-        result = run_estimate(trace, omega_rad_s, model)
+        result = run_estimate(trace, omega_rad_s, model, bearing=bearing)
     except (TraceError, DomainError) as exc:
         raise InputError(str(exc)) from None
     if out is not None:

@@ -44,15 +44,33 @@ def study() -> None:
 @click.option("--out", "out", type=str, required=True, help="Output directory.")
 @click.option("--quick", is_flag=True, help="One scene, three settings: a pipeline check.")
 @click.option("--fresh", is_flag=True, help="Ignore finished cases cached in DIR/.cache.")
+@click.option(
+    "--defects",
+    is_flag=True,
+    help="Also the quasi-static tier against the DEM on spalled scenes: "
+    "DIR/accuracy_cost_defects.{parquet,md}.",
+)
 @click.option("--quiet", is_flag=True, help="No progress bar or file list.")
-def accuracy_cost(out, quick, fresh, quiet):
+def accuracy_cost(out, quick, fresh, defects, quiet):
     """Fidelity ladder against a dt = 1e-8 s reference: DIR/accuracy_cost.{parquet,md,png}."""
     from signatelec.studies.accuracy_cost import run_study
 
-    own = ("accuracy_cost.parquet", "accuracy_cost.md", "accuracy_cost.png", ".cache")
+    own = (
+        "accuracy_cost.parquet",
+        "accuracy_cost.md",
+        "accuracy_cost.png",
+        "accuracy_cost_defects.parquet",
+        "accuracy_cost_defects.md",
+        ".cache",
+    )
     with study_output(out, "accuracy-cost", own, "finished cases are kept in DIR/.cache"):
         run_study(
-            out, quick=quick, progress=not quiet, fresh=fresh, log=None if quiet else click.echo
+            out,
+            quick=quick,
+            progress=not quiet,
+            fresh=fresh,
+            log=None if quiet else click.echo,
+            defects=defects,
         )
 
 

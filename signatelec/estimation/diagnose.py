@@ -17,7 +17,12 @@ one:
 
 The result's keys: ``condition`` (None when not assessed), ``condition_probability_<name>``,
 ``condition_confident``, ``spall_length_m`` with ``_low`` and ``_high`` (None unless a spall is
-the answer), ``condition_in_domain_score``; and notes.
+the answer), ``condition_in_domain_score``; for a defect or an unbalance the characteristic
+line that names it (:data:`CONDITION_LINES`): ``condition_line`` (its name),
+``condition_line_hz`` (from the bearing's geometry and the speed,
+:func:`~signatelec.physics.kinematics.characteristic_frequencies_hz`),
+``condition_line_found_hz`` (the highest peak within the line's search window) and
+``condition_line_snr`` (its height over the spectrum's floor there); and notes.
 """
 
 from __future__ import annotations
@@ -32,6 +37,17 @@ from signatelec.estimation.envelope import MIN_CAGE_REVOLUTIONS, analyse_envelop
 
 #: A condition call at or above this probability is confident.
 CONFIDENT_CONDITION = 0.8
+#: The characteristic line of each condition and the spectrum that carries it (module
+#: docstring of :mod:`signatelec.estimation.envelope`): a spall's pulses in the envelope, an
+#: unbalance's breathing load zone in the trace itself.
+CONDITION_LINES = {
+    "outer": ("bpfo", "envelope"),
+    "inner": ("bpfi", "envelope"),
+    "ball": ("ball_defect", "envelope"),
+    "unbalance": ("shaft", "raw"),
+}
+#: Result keys of the characteristic line.
+LINE_KEYS = ("condition_line", "condition_line_hz", "condition_line_found_hz", "condition_line_snr")
 
 
 def _none(model) -> dict:
@@ -41,7 +57,25 @@ def _none(model) -> dict:
         out[f"condition_probability_{c}"] = None
     for k in ("", "_low", "_high"):
         out[f"{SEVERITY_TARGET}{k}"] = None
-    return out
+    return out | dict.fromkeys(LINE_KEYS)
+
+
+def matched_line(condition: str, analysis) -> dict:
+    """The characteristic line of ``condition`` in the trace's ``analysis``
+    (:data:`LINE_KEYS`; all None for a healthy call)."""
+    if condition not in CONDITION_LINES:
+        return dict.fromkeys(LINE_KEYS)
+    name, which = CONDITION_LINES[condition]
+    spectrum = analysis.envelope if which == "envelope" else analysis.raw
+    f_hz = float(analysis.lines_hz[name])
+    floor = spectrum.floor(f_hz)
+    found = spectrum.peak_hz(f_hz)
+    return {
+        "condition_line": name,
+        "condition_line_hz": f_hz,
+        "condition_line_found_hz": found if math.isfinite(found) else None,
+        "condition_line_snr": spectrum.line(f_hz) / floor if floor > 0.0 else None,
+    }
 
 
 def assess_condition(
@@ -76,6 +110,7 @@ def assess_condition(
             f"{', '.join(model.domain.farthest(feats))})"
         ]
     out = model.predict_one(feats)
+    out |= matched_line(out["condition"], analysis)
     notes = []
     probs = {c: out[f"condition_probability_{c}"] for c in model.estimator.classes_}
     best = out["condition"]
@@ -113,6 +148,16 @@ def condition_line(result: dict) -> str | None:
     p = result.get(f"condition_probability_{c}")
     sure = "" if result.get("condition_confident") else ", uncertain"
     line = f"  condition = {c}  (probability {p:.2f}{sure})"
+    name = result.get("condition_line")
+    if name is not None:
+        label = {"ball_defect": "2 BSF"}.get(name, name.upper())
+        found = result.get("condition_line_found_hz")
+        snr = result.get("condition_line_snr")
+        line += f"; {label} {result['condition_line_hz']:.1f} Hz"
+        if found is not None:
+            line += f", line found at {found:.1f} Hz"
+        if snr is not None:
+            line += f" ({snr:.1f} x its floor)"
     length = result.get(SEVERITY_TARGET)
     if length is not None:
         lo, hi = result[f"{SEVERITY_TARGET}_low"], result[f"{SEVERITY_TARGET}_high"]

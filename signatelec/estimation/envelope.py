@@ -159,6 +159,16 @@ class Spectrum:
         a = self._window(f_hz - half, f_hz + half)
         return float(a.max()) if a.size and f_hz + half < self.df_hz * self.amplitude.size else 0.0
 
+    def peak_hz(self, f_hz: float) -> float:
+        """Frequency of the amplitude :meth:`line` reads (NaN beyond Nyquist): where the line
+        expected at ``f_hz`` was found."""
+        half = max(SEARCH_REL * f_hz, 1.0 / self.duration_s)
+        a = self._window(f_hz - half, f_hz + half)
+        if not a.size or f_hz + half >= self.df_hz * self.amplitude.size:
+            return float("nan")
+        i0 = max(int(math.floor((f_hz - half) / self.df_hz)), 0)
+        return float((i0 + int(np.argmax(a))) * self.df_hz)
+
     def floor(self, f_hz: float) -> float:
         """Median amplitude within +-FLOOR_REL of ``f_hz`` (at least +-10 / T), the line's own
         window (+-SEARCH_REL, at least +-3 / T: the Hann main lobe) left out: what noise alone

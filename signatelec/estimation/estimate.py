@@ -20,8 +20,10 @@ features are unlike the training traces' too (score below
 :data:`~signatelec.estimation.domain.NO_LINE_REFUSE_SCORE`)
 (:class:`~signatelec.estimation.domain.DomainError`), unless the condition model calls a defect
 or an unbalance confidently: its signature may take the trace out of the load-state domain, so
-the condition is answered and the load state left out, with a note. A trace without a line but
-like the
+the condition is answered and the load state left out, with a note. A trace the condition
+model calls faulty (a spall or an unbalance) is scored and answered by the model's ``faulty``
+load-state model, which learnt defective runs too: the load state holds with a defect present
+(docs/diagnosis, "Load state with a defect present"). A trace without a line but like the
 training traces is answered with a warning and no confident regime: where the load zone's edge
 sits on a zero of the ripple's first harmonic (epsilon about 0.35-0.43 or 0.525-0.55) a running
 bearing shows no line within 0.2 % noise over 50 ms, and the model has learnt those states; the
@@ -35,6 +37,8 @@ from __future__ import annotations
 
 import math
 
+from signatelec.config.bearing import Bearing
+from signatelec.config.scene import Scene
 from signatelec.estimation.diagnose import assess_condition
 from signatelec.estimation.domain import (
     NO_LINE_REFUSE_SCORE,
@@ -54,7 +58,9 @@ from signatelec.physics.regimes import REGIMES
 CONFIDENT_PROBABILITY = 0.8
 
 
-def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
+def estimate(
+    trace, omega_rad_s: float, model: LoadStateModel, bearing: Bearing | None = None
+) -> dict:
     """Estimate the load state of a prepared :class:`signatelec.measurement.traces.Trace`.
 
     Returns a flat dict: ``radial_load_n``, ``epsilon``, ``clearance_m`` with ``*_low`` and
@@ -66,10 +72,18 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
     ``_low`` and ``_high`` and ``condition_in_domain_score``
     (:func:`~signatelec.estimation.diagnose.assess_condition`). Raises TraceError or
     DomainError (one line) when the trace cannot carry an answer (module docstring).
+
+    ``bearing``: the bearing's geometry (default: the seed's), which places the characteristic
+    lines the condition model reads. The load-state model learnt the seed's bearing only: for
+    another the condition is answered and the load state left out, with a note.
     """
     domain = model.domain
     screened = screen_trace(
-        trace, omega_rad_s, domain.level_range_ohm, defect_lines=model.condition is not None
+        trace,
+        omega_rad_s,
+        domain.level_range_ohm,
+        defect_lines=model.condition is not None,
+        bearing=bearing,
     )
     trace, ripple = screened.trace, screened.ripple
     notes = list(screened.notes)
@@ -77,9 +91,31 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
     condition: dict = {}
     if model.condition is not None:
         condition, condition_notes = assess_condition(
-            trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s, feats, model.condition
+            trace.resistance_ohm,
+            trace.sample_rate_hz,
+            omega_rad_s,
+            feats,
+            model.condition,
+            bearing=bearing,
         )
         notes += condition_notes
+    if bearing is not None and not is_seed_bearing(bearing):
+        if not condition:
+            raise DomainError(
+                f"{trace.source}: the model knows the seed's bearing only, and no condition "
+                f"model is there to assess this {bearing.name}"
+            )
+        notes.append(
+            f"load state not estimated: the load-state model learnt the seed's bearing only, "
+            f"not the {bearing.name}"
+        )
+        # the trace's ball-pass figures of its own geometry (the features read the seed's)
+        feats = feats | {
+            "ball_pass_expected_hz": ripple.expected_hz,
+            "ball_pass_found_hz": ripple.frequency_hz,
+            "duration_ball_passes": trace.duration_s * ripple.expected_hz,
+        }
+        return _result(condition, notes, trace, feats, ripple, model)
     if screened.defect_line is not None:
         # the strongest line is a defect's, not the ball-pass ripple: only a confident call of
         # that very condition explains it; otherwise it is a wrong --omega, as the layer says
@@ -90,6 +126,11 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
             f"the strongest line ({ripple.frequency_hz:.1f} Hz) is the {name} line of the "
             f"{kind} condition, not the ball-pass ripple"
         )
+    # a trace the condition model calls faulty is answered by the load-state model that
+    # learnt defective runs too (docs/diagnosis: F_r with a defect present)
+    faulty = condition.get("condition") not in (None, "healthy")
+    load = model.faulty if faulty and model.faulty is not None else model
+    domain = load.domain
     score = domain.score(feats)
     where = trace.source
     problem = None
@@ -110,8 +151,8 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
         # the condition is the answer, the load state is not given
         notes.append(f"load state not estimated: {problem.split(': ', 1)[-1]}")
         return _result(condition, notes, trace, feats, ripple, model)
-    out = model.predict_one(feats) | condition
-    out["interval_coverage"] = model.info.get("coverage", DEFAULT_COVERAGE)
+    out = load.predict_one(feats) | condition
+    out["interval_coverage"] = load.info.get("coverage", DEFAULT_COVERAGE)
     out["in_domain_score"] = score
     if score < WARN_SCORE:
         notes.append(
@@ -141,6 +182,11 @@ def estimate(trace, omega_rad_s: float, model: LoadStateModel) -> dict:
                 "alike within this trace's noise, so a longer or quieter trace is needed to tell"
             )
     return _result(out, notes, trace, feats, ripple, model, omega_rad_s)
+
+
+def is_seed_bearing(bearing: Bearing) -> bool:
+    """Whether ``bearing`` is the seed's (the one the load-state model learnt)."""
+    return bearing == Scene().bearing
 
 
 def _confident_fault(condition: dict) -> bool:

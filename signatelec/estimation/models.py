@@ -429,7 +429,8 @@ class LoadStateModel:
     feature columns it reads, in order, ``info`` on its training (source, rows, runs,
     targets, coverage, ranges of the labels, of omega and of the level), the ``domain`` of
     its training traces (:class:`~signatelec.estimation.domain.Domain`: level range, in-domain
-    score) and, when trained on condition labels, the ``condition`` model beside it."""
+    score) and, when trained on condition labels, the ``condition`` model beside it; the
+    ``faulty`` model answers the load state where the condition model calls a fault."""
 
     estimator: LoadStateEstimator
     features: list[str]
@@ -438,6 +439,9 @@ class LoadStateModel:
     #: The bearing's condition (:class:`~signatelec.estimation.condition.ConditionModel`), or
     #: None for a model trained on a table without condition labels.
     condition: object | None = None
+    #: The load-state model of a trace on which the condition model calls a defect or an
+    #: unbalance (a :class:`LoadStateModel` trained on defective runs too), or None.
+    faulty: object | None = None
 
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])

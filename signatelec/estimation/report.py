@@ -76,6 +76,11 @@ def _ripple_line(tr: dict) -> str:
         return f"{found}; ripple line false-alarm probability {fa:.1g}"
     if status == "harmonic":
         return f"{found}; ripple line at a harmonic only ({tr['ripple_hz']:.2f} Hz, {fa:.1g})"
+    if status == "elsewhere":  # a defect's own line, outgrowing the ripple (see the notes)
+        return (
+            f"ball-pass frequency: kinematic {tr['ball_pass_expected_hz']:.2f} Hz; the strongest "
+            f"line is at {tr['ripple_hz']:.2f} Hz (false-alarm probability {fa:.2g})"
+        )
     return (
         f"ball-pass frequency: kinematic {tr['ball_pass_expected_hz']:.2f} Hz; no ripple line "
         f"found (false-alarm probability {fa:.2g} at best)"

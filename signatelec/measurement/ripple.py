@@ -188,13 +188,19 @@ class Ripple:
 
 
 def find_ripple(
-    resistance_ohm, sample_rate_hz: float, omega_rad_s: float, n_harmonics: int = N_HARMONICS
+    resistance_ohm,
+    sample_rate_hz: float,
+    omega_rad_s: float,
+    n_harmonics: int = N_HARMONICS,
+    *,
+    bearing=None,
 ) -> Ripple:
-    """Search a uniformly sampled, finite trace for the ball-pass ripple (module rules)."""
+    """Search a uniformly sampled, finite trace for the ball-pass ripple (module rules) of
+    ``bearing`` (default: the seed's)."""
     r = np.asarray(resistance_ohm, dtype=float)
     fs = float(sample_rate_hz)
     duration = r.size / fs
-    f_exp = expected_ball_pass_hz(omega_rad_s)
+    f_exp = expected_ball_pass_hz(omega_rad_s, bearing)
     base = {"omega_rad_s": float(omega_rad_s), "expected_hz": f_exp}
     x = _detrended(r)
     level = abs(float(r.mean())) if r.size else 0.0

@@ -13,6 +13,10 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
    traces, a random walk of 0.1 % at the end of the window). The steady part starts after the
    last departing block and must span :data:`~signatelec.measurement.traces.MIN_BALL_PASSES`
    (a trend moves the early blocks off the final level: it is cut off or refused alike).
+   With a condition model (``defect_lines``), departures that recur through the trace (in
+   :data:`RECURRENT_GROUPS` or more groups, not from its start, into its second half) are a
+   defect's events, a
+   spall on a ball most (once per cage revolution), and the trace is kept whole;
    A simulation's set-up (the ``phase`` column of ``signatelec simulate``'s
    ``signals.parquet``) is dropped earlier, by
    :func:`~signatelec.measurement.traces.prepare_trace`;
@@ -57,6 +61,9 @@ _MAD_TO_SIGMA = 1.4826
 #: Half-width of the match of a line to a defect's line, relative (the DEM's cage slips by
 #: -0.3 to +0.1 %, a ball's spin more), widened by two frequency bins 2 / T of the trace.
 DEFECT_LINE_REL = 0.01
+#: Departures from the steady level in at least this many separate groups of ball passes,
+#: reaching the second half of the trace, recur as a defect's events do.
+RECURRENT_GROUPS = 2
 
 
 @dataclass(frozen=True)
@@ -73,12 +80,12 @@ class Screening:
     defect_line: tuple[str, str] | None = None
 
 
-def defect_lines_hz(omega_rad_s: float) -> dict[str, tuple[str, float]]:
+def defect_lines_hz(omega_rad_s: float, bearing=None) -> dict[str, tuple[str, float]]:
     """The lines a defect or an unbalance puts in the resistance spectrum, by name: (the
     condition, Hz): the shaft harmonics (unbalance), BPFI's harmonics and its shaft sidebands
     (inner race), 2 BSF's harmonics, its cage sidebands and the cage harmonics (ball);
-    Randall and Antoni (2011, eqs 1-4)."""
-    f = characteristic_frequencies_hz(omega_rad_s)
+    Randall and Antoni (2011, eqs 1-4). ``bearing``: its geometry (default: the seed's)."""
+    f = characteristic_frequencies_hz(omega_rad_s, bearing)
     lines: dict[str, tuple[str, float]] = {}
     for k in range(1, 9):
         lines[f"{k} f_s"] = ("unbalance", k * f["shaft"])
@@ -94,23 +101,39 @@ def defect_lines_hz(omega_rad_s: float) -> dict[str, tuple[str, float]]:
 
 
 def defect_line_of(
-    frequency_hz: float, omega_rad_s: float, duration_s: float
+    frequency_hz: float, omega_rad_s: float, duration_s: float, bearing=None
 ) -> tuple[str, str] | None:
     """(condition, line name) of the defect line nearest ``frequency_hz`` within
     :data:`DEFECT_LINE_REL` (+ 2 / T), or None."""
     best = None
-    for name, (condition, f) in defect_lines_hz(omega_rad_s).items():
+    for name, (condition, f) in defect_lines_hz(omega_rad_s, bearing).items():
         off = abs(frequency_hz - f)
         if off <= DEFECT_LINE_REL * f + 2.0 / duration_s and (best is None or off < best[0]):
             best = (off, condition, name)
     return None if best is None else (best[1], best[2])
 
 
-def trim_transient(trace: Trace, omega_rad_s: float) -> Trace:
+def recurrent(off: np.ndarray, n_blocks: int) -> bool:
+    """Whether the departing blocks ``off`` (indices among ``n_blocks``) recur through the
+    trace, as a defect's events do (a spall on a ball is in the load zone once per cage
+    revolution), rather than lead up to the steady part as a set-up transient, a step or a
+    trend does (those depart from the first block on): at least :data:`RECURRENT_GROUPS`
+    separate groups, none at the first block, the last in the second half."""
+    if off.size == 0:
+        return False
+    groups = 1 + int(np.count_nonzero(np.diff(off) > 1))
+    return groups >= RECURRENT_GROUPS and off[0] > 0 and off[-1] >= n_blocks // 2
+
+
+def trim_transient(
+    trace: Trace, omega_rad_s: float, *, events: bool = False, bearing=None
+) -> Trace:
     """The steady part of a trace (module rules), what was cut said in one line of its
-    ``repairs``; TraceError when no steady part is long enough."""
+    ``repairs``; TraceError when no steady part is long enough. With ``events`` (the caller
+    has a condition model to judge them), departures that recur through the trace
+    (:func:`recurrent`) are a defect's events, not a transient: the trace is kept whole."""
     r, fs = trace.resistance_ohm, trace.sample_rate_hz
-    f_bp = expected_ball_pass_hz(omega_rad_s)
+    f_bp = expected_ball_pass_hz(omega_rad_s, bearing)
     n_block = max(int(round(fs / f_bp)), 1)
     n = r.size // n_block
     if n < 4:
@@ -122,6 +145,8 @@ def trim_transient(trace: Trace, omega_rad_s: float) -> Trace:
     allowed = max(STEP_SIGMAS * noise, DRIFT_ALLOWANCE * abs(level))
     off = np.flatnonzero(np.abs(means - level) > allowed)
     where = trace.source
+    if events and recurrent(off, n):
+        return trace
     if off.size:
         last = int(off[-1])
         worst = int(off[np.argmax(np.abs(means[off] - level))])
@@ -187,22 +212,24 @@ def screen_trace(
     level_range_ohm: tuple[float, float] | None = None,
     *,
     defect_lines: bool = False,
+    bearing=None,
 ) -> Screening:
     """The sanity layer (module docstring): trimmed trace, ripple and notes, or TraceError.
     ``level_range_ohm``: the model's trained level range, checked after the trimming. With
     ``defect_lines``, a line away from the ball-pass frequency that lies on a defect's line
     (:func:`defect_line_of`) is not refused here: the screening names it for the caller to
-    confirm (a condition model) or refuse."""
-    trace = trim_transient(trace, omega_rad_s)
+    confirm (a condition model) or refuse. ``bearing``: its geometry, which places the
+    ball-pass and the defects' lines (default: the seed's)."""
+    trace = trim_transient(trace, omega_rad_s, events=defect_lines, bearing=bearing)
     notes = []
     if level_range_ohm is not None:
         level = float(np.mean(trace.resistance_ohm))
         note = check_level(level, level_range_ohm, trace.source)
         if note:
             notes.append(note)
-    ripple = find_ripple(trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s)
+    ripple = find_ripple(trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s, bearing=bearing)
     if ripple.status == "elsewhere" and defect_lines:
-        line = defect_line_of(ripple.frequency_hz, omega_rad_s, trace.duration_s)
+        line = defect_line_of(ripple.frequency_hz, omega_rad_s, trace.duration_s, bearing)
         if line is not None:
             return Screening(trace=trace, ripple=ripple, notes=tuple(notes), defect_line=line)
     if ripple.status in ("elsewhere", "constant"):

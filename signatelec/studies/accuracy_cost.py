@@ -33,7 +33,10 @@ also counts the other processes.
 
 Outputs (:func:`run_study`): ``accuracy_cost.parquet`` (one row per scene and setting),
 ``accuracy_cost.md`` (summary and per-scene tables), ``accuracy_cost.png`` (Pareto plot:
-error against cost, log axes; both by :mod:`signatelec.studies.accuracy_report`). Runs are
+error against cost, log axes; both by :mod:`signatelec.studies.accuracy_report`), and with
+``defects`` (``--defects``) the defect rows ``accuracy_cost_defects.{parquet,md}`` (the
+quasi-static tier against the DEM on spalled scenes:
+:mod:`signatelec.studies.accuracy_cost_defects`). Runs are
 resumable: finished cases are kept in
 ``OUT/.cache/`` (``fresh=True`` / ``--fresh`` starts over).
 """
@@ -55,6 +58,7 @@ import pandas as pd
 from signatelec.config.scene import Scene
 from signatelec.engines.fidelity import PRESETS, Preset, apply_fidelity, cage_mass_scale
 from signatelec.io import write_bytes_atomic
+from signatelec.studies.accuracy_cost_defects import write_rows as defect_rows
 from signatelec.studies.accuracy_metrics import PAPER_SETTING, Trace, compare
 from signatelec.studies.accuracy_report import markdown, plot
 
@@ -432,8 +436,10 @@ def run_study(
     fresh: bool = False,
     config: StudyConfig | None = None,
     log: Callable[[str], None] | None = print,
+    defects: bool = False,
 ) -> dict[str, Path]:
-    """Run the study into ``out_dir``; returns the paths of the table, the Markdown and the plot.
+    """Run the study into ``out_dir``; returns the paths of the table, the Markdown and the plot
+    (``defects``: and of the defect rows, :mod:`signatelec.studies.accuracy_cost_defects`).
 
     Finished cases are kept in ``out_dir/.cache`` (resume; ``fresh`` starts over). The study's
     run time written in the Markdown is the sum of its cases' times, whatever the resumptions.
@@ -453,6 +459,8 @@ def run_study(
     write_bytes_atomic(paths["table"], table.to_parquet(index=False))
     write_bytes_atomic(paths["markdown"], markdown(table, run_time).encode("utf-8"))
     plot(table, paths["plot"])
+    if defects:
+        paths |= defect_rows(out, quick=quick)
     if log is not None:
         log(f"study run time {run_time:.0f} s (this invocation {elapsed:.0f} s)")
         for path in paths.values():

@@ -15,9 +15,12 @@ bearing, on held-out paper-fidelity DEM runs.
    condition features of each;
 3. **train** the condition model on every training window (both bearings), predict the test
    windows; the shipped default load-state model predicts F_r on them;
-4. **evaluate and report** (:mod:`signatelec.studies.diagnosis_report`): the acceptance table
+4. **false alarms** (:mod:`signatelec.studies.diagnosis_alarms`): held-out healthy runs
+   enough to bound the false-alarm rate (Clopper-Pearson), each measured once;
+5. **evaluate and report** (:mod:`signatelec.studies.diagnosis_report`): the acceptance table
    (healthy runs flagged, spalls at least the Hertz contact width detected and typed right,
-   F_r MAPE with and without a defect), detection against spall length and against noise,
+   F_r MAPE with and without a defect, with bootstrap intervals per spall location), the
+   false alarms, detection against spall length and against noise,
    Parquet, Markdown and PNG into the report directory, and the README's figures (a trace and
    its envelope spectrum per condition).
 
@@ -66,7 +69,21 @@ TRAIN_DRAWS = 2
 NOISE_SCAN = (5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2)
 #: First spawn-key words of the measurement draws (training, acceptance, noise scan).
 TRAIN_KEY, ACCEPT_KEY, SCAN_KEY = 500, 501, 600
+#: Held-out healthy runs per bearing for the false-alarm rate (2 x 175 = 350 runs: with none
+#: flagged the one-sided 95 % upper bound is 0.85 %, :mod:`signatelec.studies.diagnosis_alarms`).
+ALARM_RUNS = 175
+#: Runs per bearing of the quick variant (fast preset): a pipeline check.
+QUICK_ALARM_RUNS = 2
+#: Spawn-key word of the false-alarm runs' measurement draws.
+ALARM_KEY = 700
+#: Seed offset of the false-alarm runs (their draws share none with the training or test runs).
+ALARM_SEED_OFFSET = 1000
 SHIPPED_COLUMNS = ("run_id", "bearing", "noise_fraction", "radial_load_n", "condition")
+#: The load-state labels the shipped table carries too: the default load-state model learns
+#: from these runs (signatelec.estimation.training.faulty_load_rows); F_r is the static load.
+LOAD_COLUMNS = ("length_s", "epsilon", "clearance_m", "regime", "omega_rad_s")
+#: The steady window of every run (datasets/diagnosis.toml dataset.duration_s), s.
+DURATION_S = 0.2
 #: The training design (a file of the source tree, beside the package).
 DEFAULT_SPEC = Path(__file__).resolve().parents[2] / "datasets" / "diagnosis.toml"
 
@@ -84,14 +101,23 @@ def _rng(*key: int) -> np.random.Generator:
 # --- 1. generate ------------------------------------------------------------------------------
 
 
-def study_spec(spec_path: Path, bearing: str, test: bool, quick: bool):
+def study_spec(
+    spec_path: Path, bearing: str, test: bool, quick: bool, healthy_runs: int | None = None
+):
     """The dataset spec of a bearing's training runs (``test``: its held-out paper-fidelity
-    runs); ``quick``: 3 training runs (test: 1) per condition, all at the "fast" preset."""
+    runs); ``quick``: 3 training runs (test: 1) per condition, all at the "fast" preset.
+    ``healthy_runs``: instead, that many held-out healthy runs of their own seed (the
+    false-alarm runs of :mod:`signatelec.studies.diagnosis_alarms`)."""
     data = tomllib.loads(Path(spec_path).read_text())
     ds = data["dataset"]
     index = BEARINGS.index(bearing) if bearing in BEARINGS else len(BEARINGS)
     ds["name"] = f"{ds['name']}_{bearing}" + ("_test" if test else "")
     ds["seed"] = ds["seed"] + 2 * index + (1 if test else 0)
+    if healthy_runs is not None:
+        blocks = data["design"]
+        data["design"] = [b for b in blocks if b["factors"]["condition"]["value"] == "healthy"]
+        ds["name"] = f"{ds['name']}_alarms"
+        ds["seed"] += ALARM_SEED_OFFSET
     if test and not quick:
         ds["fidelity"] = "dem"
     if bearing != "seed":
@@ -104,7 +130,9 @@ def study_spec(spec_path: Path, bearing: str, test: bool, quick: bool):
         if bearing != "seed" and "unbalance_force_n" in block["factors"]:
             f = block["factors"]["unbalance_force_n"]
             f["min"], f["max"] = f["min"] * ratio, f["max"] * ratio
-        if quick:
+        if healthy_runs is not None:
+            block["n_traces"] = healthy_runs
+        elif quick:
             block["n_traces"] = 1 if test else 3
         elif test:
             block["n_traces"] = TEST_RUNS[condition]
@@ -250,30 +278,70 @@ def predict_rows(model, table: pd.DataFrame) -> pd.DataFrame:
 
 
 def load_predictions(table: pd.DataFrame) -> np.ndarray:
-    """F_r of each seed-bearing row by the default load-state model (NaN for other bearings:
-    the shipped load-state model knows the seed's bearing only)."""
+    """F_r of each seed-bearing row by the default load-state model, as ``signatelec
+    estimate`` answers: its ``faulty`` model where the condition model called a fault (NaN
+    for other bearings: the shipped load-state model knows the seed's bearing only)."""
     from signatelec.estimation.persistence import default_model
 
     model = default_model()
     out = np.full(len(table), np.nan)
     seed = (table["bearing"] == "seed").to_numpy()
-    if seed.any():
-        out[seed] = model.predict_frame(table[seed])["radial_load_n"].to_numpy()
+    fault = (table["pred_condition"].astype(str) != "healthy").to_numpy()
+    for rows, m in ((seed & ~fault, model), (seed & fault, model.faulty or model)):
+        if rows.any():
+            out[rows] = m.predict_frame(table[rows])["radial_load_n"].to_numpy()
     return out
+
+
+def alarm_predictions(
+    out: Path,
+    spec_path: Path,
+    model,
+    *,
+    quick: bool,
+    reuse: bool = True,
+    workers: int = 0,
+    log: Log | None = None,
+) -> pd.DataFrame:
+    """Generate (or resume) the false-alarm runs, measure them and ask the condition
+    ``model``: one row per run with its labels, features and ``pred_`` columns. The measured
+    rows are cached in ``out/features_alarms.parquet`` (read again when ``reuse``)."""
+    log = log or _quiet
+    n = QUICK_ALARM_RUNS if quick else ALARM_RUNS
+    path = out / "features_alarms.parquet"
+    rows = pd.read_parquet(path) if reuse and path.is_file() else None
+    if rows is None or len(rows) != n * len(BEARINGS):
+        parts = []
+        for bearing in BEARINGS:
+            spec = study_spec(spec_path, bearing, True, quick, healthy_runs=n)
+            d = out / f"runs_{bearing}" / "alarms"
+            t0 = time.perf_counter()
+            summary = generate_dataset(spec, d, workers=workers)
+            log(
+                f"generate {spec.name}: {summary.generated} new runs, {summary.n_traces} in all, "
+                f"{time.perf_counter() - t0:.0f} s"
+            )
+            runs = load_runs(d, log)
+            parts += measured_rows(runs, bearing, 1, fixed_draw(ACCEPT_NOISE), ALARM_KEY)
+        rows = pd.DataFrame(parts)
+        rows.to_parquet(path, index=False)
+    return predict_rows(model, rows)
 
 
 def shipped_condition_table(train: pd.DataFrame) -> pd.DataFrame:
     """The default condition model's training table: the first measured window of every
-    training run, its labels and the condition model's features, numbers as float32."""
-    from signatelec.estimation.training import condition_model_features
+    training run, its labels and the condition and load-state models' features, numbers as
+    float32."""
+    from signatelec.estimation.training import condition_model_features, model_features
 
-    rows = train[train["window"] == 0]
-    keep = [*SHIPPED_COLUMNS, "spall_length_m", "level_mean_ohm"]
-    feats = [c for c in condition_model_features() if c not in keep]
-    out = rows[keep + feats].reset_index(drop=True).copy()
-    numbers = [c for c in out.columns if c not in ("run_id", "bearing", "condition")]
+    rows = train[train["window"] == 0].assign(length_s=DURATION_S)
+    keep = [*SHIPPED_COLUMNS, "spall_length_m", *LOAD_COLUMNS]
+    feats = [c for c in condition_model_features() + model_features() if c not in keep]
+    out = rows[keep + list(dict.fromkeys(feats))].reset_index(drop=True).copy()
+    labels = ("run_id", "bearing", "condition", "regime")
+    numbers = [c for c in out.columns if c not in labels]
     out[numbers] = out[numbers].astype(np.float32)
-    for c in ("bearing", "condition"):
+    for c in labels[1:]:
         out[c] = out[c].astype("category")
     return out
 
@@ -310,7 +378,11 @@ def run_study(
         pred = predict_rows(model, test)
         pred["hertz_width_m"] = contact_widths_m(pred)
         pred["pred_load_radial_load_n"] = load_predictions(pred)
+        alarms = alarm_predictions(
+            out, spec_path, model, quick=quick, reuse=reuse, workers=workers, log=log
+        )
     pred.to_parquet(out / "predictions_test.parquet", index=False)
+    alarms.to_parquet(out / "predictions_alarms.parquet", index=False)
     if ship_to is not None:
         import io
 
@@ -329,6 +401,7 @@ def run_study(
             "elapsed_s": time.perf_counter() - t_start,
         },
         model=model,
+        alarms=alarms,
     )
     log(f"report: {report_dir}")
     return figures

@@ -1,10 +1,11 @@
 """The diagnosis study's report: acceptance table, detection curves, the README's signatures.
 
 Written by :func:`signatelec.studies.diagnosis.run_study` into docs/diagnosis:
-``diagnosis.parquet`` (every figure of the tables), ``diagnosis.md``, ``diagnosis.png``
-(detection probability against spall length and against noise) and ``signatures.png`` (per
-condition, the resistance over a few cage revolutions and its envelope spectrum with the
-characteristic lines marked).
+``diagnosis.parquet`` (every figure of the tables, the false alarms and the load state with a
+defect of :mod:`signatelec.studies.diagnosis_alarms` among them), ``diagnosis.md``,
+``diagnosis.png`` (detection probability against spall length and against noise) and
+``signatures.png`` (per condition, the resistance over a few cage revolutions and its envelope
+spectrum with the characteristic lines marked).
 """
 
 from __future__ import annotations
@@ -92,6 +93,29 @@ def figures_table(pred: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def length_figures(pred: pd.DataFrame) -> pd.DataFrame:
+    """The spall-length estimate on the acceptance windows whose spall was detected and typed
+    right, per location and for all: windows, median and mean relative error, the share of
+    true lengths inside the interval (nominal 90 %)."""
+    acc = pred[pred["acceptance"] & pred["condition"].isin(SPALLS)]
+    acc = acc[acc["pred_condition"] == acc["condition"]]
+    rows = []
+    for group, g in [("all", acc), *acc.groupby("condition", observed=True)]:
+        truth = g["spall_length_m"].to_numpy()
+        err = np.abs(g["pred_spall_length_m"].to_numpy() / truth - 1.0)
+        inside = (g["pred_spall_length_m_low"] <= truth) & (truth <= g["pred_spall_length_m_high"])
+        rows.append(
+            {
+                "group": str(group),
+                "windows": int(len(g)),
+                "median_error": float(np.median(err)) if err.size else float("nan"),
+                "mean_error": _rate(err),
+                "coverage": _rate(inside.to_numpy()),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
 def _pct(x) -> str:
     return "-" if x is None or not np.isfinite(x) else f"{100 * x:.1f} %"
 
@@ -132,8 +156,12 @@ def markdown(table: pd.DataFrame, pred: pd.DataFrame, info: dict) -> str:
         )
     lines += [
         "",
-        "F_r by the default load-state model (trained on healthy seed-bearing runs only; the "
-        "6205 rows have none).",
+        "F_r by the default load-state model as `signatelec estimate` answers: where the "
+        "condition model calls healthy, its healthy model (the load-state study's runs); where "
+        "it calls a fault, its faulty model (those runs and the condition model's training runs "
+        "of the seed's bearing, healthy, spalled and unbalanced). The 6205 rows have none (the "
+        "load-state models know the seed's bearing only). Under an unbalance F_r is the static "
+        "load.",
         "",
         "## Detection against noise (every test run measured again at each noise level)",
         "",
@@ -156,6 +184,18 @@ def markdown(table: pd.DataFrame, pred: pd.DataFrame, info: dict) -> str:
     for r in table[table["table"] == "length"].itertuples():
         lines.append(
             f"| {r.group} | {r.windows} | {_pct(r.wide_detected)} | {_pct(r.wide_type_right)} |"
+        )
+    lines += [
+        "",
+        "## Spall length (acceptance windows detected and typed right)",
+        "",
+        "| spall | windows | median error | mean error | true length inside the 90 % interval |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for r in length_figures(pred).itertuples():
+        lines.append(
+            f"| {r.group} | {r.windows} | {_pct(r.median_error)} | {_pct(r.mean_error)} | "
+            f"{_pct(r.coverage)} |"
         )
     cm = pd.crosstab(
         pred.loc[pred["acceptance"], "condition"], pred.loc[pred["acceptance"], "pred_condition"]
@@ -292,14 +332,38 @@ def signature_runs(out: Path) -> pd.DataFrame:
     return pd.DataFrame(picks).assign(bearing="seed")
 
 
-def report(pred: pd.DataFrame, report_dir: Path, out: Path, info: dict, model=None) -> dict:
-    """Write the report files; returns the acceptance row of all bearings."""
+def report(
+    pred: pd.DataFrame,
+    report_dir: Path,
+    out: Path,
+    info: dict,
+    model=None,
+    alarms: pd.DataFrame | None = None,
+) -> dict:
+    """Write the report files; returns the acceptance row of all bearings. ``alarms``: the
+    false-alarm runs' predictions (:mod:`signatelec.studies.diagnosis_alarms`)."""
+    from signatelec.studies import diagnosis_alarms
+
     report_dir.mkdir(parents=True, exist_ok=True)
     table = figures_table(pred)
+    text = markdown(table, pred, info)
+    load = diagnosis_alarms.load_error_figures(pred)
+    parts = [
+        table,
+        load.rename(columns={"condition": "group"}).assign(table="load"),
+        length_figures(pred).assign(table="spall_length"),
+    ]
+    if alarms is not None:
+        alarm = diagnosis_alarms.alarm_figures(alarms)
+        parts.append(alarm.assign(table="alarms"))
+        extra = diagnosis_alarms.markdown(alarm, load, bool(info.get("quick")))
+        head, tail = text.split("## Detection against noise", 1)
+        text = head + "\n".join(extra) + "\n## Detection against noise" + tail
+    table = pd.concat(parts, ignore_index=True)
     buf = io.BytesIO()
     table.to_parquet(buf, index=False)
     write_bytes_atomic(report_dir / "diagnosis.parquet", buf.getvalue())
-    write_bytes_atomic(report_dir / "diagnosis.md", markdown(table, pred, info).encode())
+    write_bytes_atomic(report_dir / "diagnosis.md", text.encode())
     plot_curves(table, report_dir / "diagnosis.png")
     plot_signatures(signature_runs(out), report_dir / "signatures.png")
     acc = table[(table["table"] == "acceptance") & (table["group"] == "all")]
