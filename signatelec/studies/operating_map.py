@@ -8,7 +8,8 @@ asked for. The scene keeps every default: the time step, spin-up and duration it
 :data:`BALL_PASSES` ball passes: the duration follows the ball-pass period) and the energy
 balance (``outputs.energy``). A cell records:
 
-- completion (or the divergence message, with its measured cure);
+- completion (or the divergence message, with its measured cure; or the tier's failure to reach
+  the ring's equilibrium, recorded as ``tier failed`` with its message);
 - the energy balance: ``|W_in - D - E_el - E_kin| / W_in`` at the end of the run;
 - the largest ball/raceway overlap at the recorded instants, as a share of the ball radius (the
   kernel aborts at 10 %);
@@ -221,7 +222,10 @@ def run_cell(cell: Cell, ball_passes: int = BALL_PASSES) -> dict:
     )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        tier = simulate(replace(tier_scene, outputs=replace(tier_scene.outputs, energy=False)))
+        try:
+            tier = simulate(replace(tier_scene, outputs=replace(tier_scene.outputs, energy=False)))
+        except (RuntimeError, ValueError) as exc:  # the tier's equilibrium not reached
+            return row | {"status": "tier failed", "message": f"{type(exc).__name__}: {exc}"}
     d, q = dem.steady(settle_s=SETTLE_S), tier.steady(settle_s=SETTLE_S)
     row["resistance_error"] = float(d.resistance_ohm.mean() / q.resistance_ohm.mean() - 1.0)
     row["load_error"] = float(d.max_ball_load_n.mean() / q.max_ball_load_n.mean() - 1.0)
@@ -235,7 +239,7 @@ def classify(row: dict) -> dict:
     current density above the seed's 0.1 A/mm^2 is physics (small contacts at light load), not
     a numerical fault: it is kept in ``current_density_warning``, apart from the status; any
     other warning counts."""
-    if row["status"] in ("diverged", "refused", "not run"):
+    if row["status"] in ("diverged", "refused", "tier failed", "not run"):
         return row
     other = [w for w in (row.get("warnings") or "").split(" | ") if w]
     other = [w for w in other if not w.startswith("contact current density")]

@@ -16,6 +16,7 @@ COLOURS = {
     "off": "tab:orange",
     "diverged": "tab:red",
     "refused": "tab:grey",
+    "tier failed": "tab:purple",
     "not run": "gainsboro",
 }
 
@@ -53,7 +54,8 @@ def markdown(table: pd.DataFrame, criteria: dict, run_time_s: float | None = Non
         "",
         f"{len(table)} cells: {int((kinds == 'ok').sum())} ok, {int((kinds == 'off').sum())} "
         f"off the tier or the energy balance, {int((kinds == 'diverged').sum())} diverged, "
-        f"{int((kinds == 'refused').sum())} refused"
+        f"{int((kinds == 'refused').sum())} refused, "
+        f"{int((kinds == 'tier failed').sum())} with no quasi-static solution"
         + (f", {int((kinds == 'not run').sum())} not run" if (kinds == "not run").any() else "")
         + ". Steady current density above the seed's "
         f"0.1 A/mm^2 (physics, light loads on small contacts; not counted as a fault): "
