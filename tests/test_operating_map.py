@@ -126,3 +126,24 @@ def test_every_cell_of_the_shipped_map_is_ok():
     bad = table[table.status != "ok"]
     listing = bad.groupby(["cage", "load_fraction", "status"]).size().to_string()
     assert bad.empty, f"{len(bad)} of {len(table)} cells not ok:\n{listing}"
+
+
+def test_cache_key_survives_a_section_added_with_defaults(monkeypatch):
+    # A cell's cached result stays valid when the scene grows a section or field at its default
+    # value (the physics of the cell is unchanged); any value the cell runs with changes the key.
+    from signatelec.config.scene import Scene
+    from signatelec.studies import operating_map
+
+    cell = Cell("6205", 100.0, 0.2, "normal", "rigid")
+    key = cell.key()
+    to_dict = Scene.to_dict
+    monkeypatch.setattr(Scene, "to_dict", lambda self: to_dict(self) | {"new": {"x_m": 1.0}})
+    assert cell.key() == key
+    monkeypatch.setattr(Scene, "to_dict", to_dict)
+    cell_scene = operating_map.cell_scene
+    monkeypatch.setattr(
+        operating_map,
+        "cell_scene",
+        lambda c, p=3: cell_scene(c, p).with_overrides(temperature_c=60.0),
+    )
+    assert cell.key() != key

@@ -112,14 +112,37 @@ class Cell:
     cage: str = "balls"
 
     def key(self, ball_passes: int = BALL_PASSES) -> str:
-        """Cache key: the cell, the scene it runs (so a change of the automatic numerics runs
-        it again) and the version."""
+        """Cache key: the cell, the version, what its scene sets apart from a default ``Scene()``
+        and the numerics it chose (:func:`scene_key_values`), so a scene section or field added
+        with its default keeps the cache while any value the cell runs with does not."""
         try:
-            scene = cell_scene(self, ball_passes).to_json()
+            scene = scene_key_values(cell_scene(self, ball_passes))
         except SceneError as exc:
             scene = str(exc)
         text = json.dumps(asdict(self) | {"version": __version__, "scene": scene}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def _leaves(tree, prefix: str = "") -> dict:
+    if isinstance(tree, dict):
+        return {
+            k: v for name, sub in tree.items() for k, v in _leaves(sub, f"{prefix}{name}.").items()
+        }
+    return {prefix[:-1]: tree}
+
+
+def scene_key_values(scene: Scene) -> dict:
+    """The scene's values that differ from a default ``Scene()`` (the bearing's fields
+    included), plus its resolved automatic numerics (dt, spin-up, duration), by dotted name.
+    A field added to the scene with its default value is absent from both, so it changes no
+    key; a changed default value of an existing field is not seen either: that is a change of
+    the physics, which bumps the version or asks for ``fresh``."""
+    default = _leaves(Scene().to_dict())
+    values = _leaves(scene.to_dict())
+    key = {k: v for k, v in values.items() if k not in default or default[k] != v}
+    for name in ("numerics.dt_s", "procedure.spin_up_time_s", "numerics.duration_s"):
+        key[name] = values[name]
+    return key
 
 
 def clearance_m(cell: Cell) -> float:
