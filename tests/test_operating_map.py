@@ -19,6 +19,7 @@ from signatelec.studies.operating_map import (
     Cell,
     cells,
     limiting_speed_rad_s,
+    minimum_load_fraction,
     normal_clearance_m,
     run_cell,
     speeds_rad_s,
@@ -40,9 +41,18 @@ def test_the_grid_spans_each_bearings_rated_speeds():
     assert w[0] == 10.0 and w[-1] == pytest.approx(18000 * np.pi / 30) and len(w) >= 5
     np.testing.assert_allclose(w[1:] / w[:-1], w[1] / w[0], rtol=1e-12)  # geometric
     grid = cells()
-    assert len(grid) == len(CATALOGUE) * len(w) * len(LOAD_FRACTIONS) * 3 * len(CAGES)
+    # at each speed: the minimum load, then 0.05, 0.2 and 0.5 C_r
+    assert len(grid) == len(CATALOGUE) * len(w) * (1 + len(LOAD_FRACTIONS)) * 3 * len(CAGES)
     assert CAGES == ("balls", "rigid")
-    assert set(LOAD_FRACTIONS) == {0.0, 0.05, 0.2, 0.5}
+    assert LOAD_FRACTIONS == (0.05, 0.2, 0.5)
+    lightest = {(c.designation, c.omega_rad_s): c.load_fraction for c in grid[::12]}
+    for (designation, omega), fraction in lightest.items():
+        assert fraction == minimum_load_fraction(designation, omega)
+        assert 0.0 < fraction < LOAD_FRACTIONS[0]
+    # ISO VG 68 at 40 C: nu = 68 mm^2/s; 6208 (d_m = 60 mm, C_r = 32.5 kN) at 10 rad/s
+    # (95.5 r/min): 0.025 (68 x 95.49 / 1000)^(2/3) 0.6^2 kN = 31.3 N
+    assert minimum_load_fraction("6208", 10.0) * 32.5e3 == pytest.approx(31.33, rel=1e-3)
+    assert {c.load_fraction for c in cells(zero_load=True)} == {0.0}
 
 
 def test_quick_map_runs_and_writes_its_outputs(tmp_path):

@@ -47,7 +47,12 @@ import pandas as pd
 
 from signatelec._version import __version__
 from signatelec.config.bearing import INNER, OUTER
-from signatelec.config.catalogue import catalogue_bearing, catalogue_entry, list_bearings
+from signatelec.config.catalogue import (
+    catalogue_bearing,
+    catalogue_entry,
+    list_bearings,
+    minimum_load_n,
+)
 from signatelec.config.scene import Scene, SceneError, preload_limit_m
 from signatelec.io import write_bytes_atomic
 from signatelec.physics.electrical import CurrentDensityWarning
@@ -56,7 +61,9 @@ from signatelec.studies.operating_map_report import write_outputs
 
 LOWEST_SPEED_RAD_S = 10.0
 N_SPEEDS = 5
-LOAD_FRACTIONS = (0.0, 0.05, 0.2, 0.5)
+#: The radial loads above the lightest, as shares of C_r; the lightest is the bearing's minimum
+#: load at the cell's speed (:func:`minimum_load_fraction`).
+LOAD_FRACTIONS = (0.05, 0.2, 0.5)
 #: The cage models mapped: the seed's cage balls and the rigid cage.
 CAGES = ("balls", "rigid")
 #: Steady running kept after the set-up: settling, then this many outer-race ball passes.
@@ -168,18 +175,33 @@ def cell_scene(cell: Cell, ball_passes: int = BALL_PASSES) -> Scene:
     return scene.with_overrides(duration_s=scene.setup_time_s + SETTLE_S + ball_passes / passes_hz)
 
 
+def minimum_load_fraction(designation: str, omega_rad_s: float) -> float:
+    """The bearing's minimum load at ``omega_rad_s`` with the scene's default lubricant
+    (:func:`signatelec.config.catalogue.minimum_load_n`), as a share of its C_r."""
+    viscosity = Scene().lubricant.kinematic_viscosity_mm2_s()
+    bearing = catalogue_bearing(designation)
+    return minimum_load_n(designation, viscosity, omega_rad_s) / bearing.dynamic_load_rating_n
+
+
 def cells(
     designations: Sequence[str] | None = None,
     cages: Sequence[str] = CAGES,
     n_speeds: int = N_SPEEDS,
+    zero_load: bool = False,
 ) -> list[Cell]:
+    """The map's cells: at each speed the minimum load and :data:`LOAD_FRACTIONS`
+    (``zero_load``: F_r = 0 alone, the cells below the minimum load)."""
     designations = list(designations or list_bearings().index)
+
+    def loads(d, w):
+        return (0.0,) if zero_load else (minimum_load_fraction(d, w), *LOAD_FRACTIONS)
+
     return [
         Cell(d, float(w), f, c, cage)
         for cage in cages
         for d in designations
         for w in speeds_rad_s(d, n_speeds)
-        for f in LOAD_FRACTIONS
+        for f in loads(d, float(w))
         for c in ("preload", "zero", "normal")
     ]
 

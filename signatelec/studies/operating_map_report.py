@@ -117,12 +117,14 @@ def plot(table: pd.DataFrame, path: Path) -> Path:
     fig = new_figure(4.0 * len(CLEARANCES), 0.5 + 0.9 * len(designations) * len(cages))
     axes = fig.subplots(1, len(CLEARANCES), sharey=True, squeeze=False)[0]
     rows = [(d, c) for c in cages for d in designations]
-    loads = sorted(set(table.load_fraction))
+    # each row's loads by rank at each speed: the lightest (the minimum load) at the bottom
+    rank = table.groupby(["designation", "cage", "omega_rad_s", "clearance"]).load_fraction
+    level = rank.rank(method="dense") - 1.0
+    n_levels = int(level.max()) + 1 if len(level) else 1
     for ax, clearance in zip(axes, CLEARANCES, strict=True):
         part = table[table.clearance == clearance]
         for r in part.itertuples():
-            level = loads.index(r.load_fraction)
-            y = rows.index((r.designation, r.cage)) + 0.2 * (level - (len(loads) - 1) / 2)
+            y = rows.index((r.designation, r.cage)) + 0.2 * (level[r.Index] - (n_levels - 1) / 2)
             ax.scatter(r.omega_rad_s, y, color=COLOURS[_kind(r.status)], s=18)
         ax.set_xscale("log")
         ax.set_title(f"clearance: {clearance}")
@@ -132,8 +134,13 @@ def plot(table: pd.DataFrame, path: Path) -> Path:
     for kind, colour in COLOURS.items():
         axes[-1].scatter([], [], color=colour, label=kind)
     axes[-1].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), title="cell")
+    per_speed = table.groupby(["designation", "omega_rad_s"]).load_fraction.apply(frozenset)
+    common = sorted(frozenset.intersection(*per_speed)) if len(per_speed) else []
+    varying = "the minimum load, " if len(common) < n_levels else ""
     axes[0].set_ylabel(
-        "bearing; within a row, F_r / C_r = " + ", ".join(f"{f:g}" for f in loads) + " upwards"
+        f"bearing; within a row, F_r upwards: {varying}"
+        + ", ".join(f"{f:g}" for f in common)
+        + " C_r"
     )
     return save_figure(fig, path)
 
