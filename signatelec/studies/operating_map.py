@@ -1,9 +1,10 @@
 """The operating map: every catalogue bearing at its rated speeds, with nothing but defaults.
 
 Each cell is one bearing of :mod:`signatelec.config.catalogue`, one inner-ring speed (geometric
-from :data:`LOWEST_SPEED_RAD_S` to the bearing's limiting speed), one radial load (a share of
-C_r) and one clearance (a preload, zero, or the bearing's normal clearance), for each cage model
-asked for. The scene keeps every default: the time step, spin-up and duration it chooses itself
+from :data:`LOWEST_SPEED_RAD_S` to the bearing's limiting speed), one radial load (the bearing's
+minimum load at that speed, then :data:`LOAD_FRACTIONS` of C_r) and one clearance (a preload,
+zero, or the bearing's normal clearance), for each cage model asked for. The scene keeps every
+default: the time step, spin-up and duration it chooses itself
 (:func:`signatelec.config.scene.resolve_auto`), except a short steady window (settling, then
 :data:`BALL_PASSES` ball passes: the duration follows the ball-pass period) and the energy
 balance (``outputs.energy``). A cell records:
@@ -16,18 +17,22 @@ balance (``outputs.energy``). A cell records:
 - the steady state against the quasi-static tier on the same recorded instants: mean resistance
   within :data:`RESISTANCE_RTOL`, mean largest ball load within :data:`LOAD_RTOL`.
 
-At zero radial load the ring's and the balls' weights are the whole load: those cells need the
-automatic spin-up's traction rule (:func:`signatelec.physics.stability.traction_spin_up_time_s`:
-seconds at speed, the time the ring's weight takes to bring the balls to rolling) and the tier's
-cage pushes (:func:`signatelec.physics.quasistatic.cage_chain_force_n`,
-:func:`~signatelec.physics.quasistatic.rigid_cage_force_n`); they are the costly cells.
+The lightest load is the bearing's minimum load (SKF's F_rm,
+:func:`signatelec.config.catalogue.minimum_load_n`, with the scene's lubricant): below it a ball
+bearing skids, and the tier assumes rolling. At F_r = 0 the ring's and the balls' weights are
+the whole load and the ball set slides for seconds; those cells (``cells(zero_load=True)``) are
+a check of their own, without the tier (:func:`skid_status`: completion, outputs, energy
+balance), written from the cache as ``below_minimum_load.{md,parquet}``; they are run by
+:func:`run_map` (the automatic spin-up waits for the traction,
+:func:`signatelec.physics.stability.traction_spin_up_time_s`: seconds of bearing time).
 
 Normal clearance: the middle of the group N radial internal clearance of ISO 5753-1:2009
 (table 1, deep-groove ball bearings) for the bearing's bore, used as the model's clearance
 Delta_r (seed eq. 14). Preload: 5 um, or half the ISO 76 preload limit when that is smaller.
 
-Finished cells are cached in ``OUT/.cache`` (an interrupted map resumes; ``fresh`` starts over;
-``cached_only`` writes the outputs from the finished cells, the others listed as ``not run``).
+Finished cells are cached in ``OUT/.cache`` under :meth:`Cell.key` (an interrupted map resumes;
+``fresh`` starts over; ``cached_only`` writes the outputs from the finished cells, the others
+listed as ``not run``).
 Writes ``operating_map.parquet``, ``operating_map.md`` and ``operating_map.png``.
 """
 
@@ -57,7 +62,7 @@ from signatelec.config.scene import Scene, SceneError, preload_limit_m
 from signatelec.io import write_bytes_atomic
 from signatelec.physics.electrical import CurrentDensityWarning
 from signatelec.physics.laws import scene_law
-from signatelec.studies.operating_map_report import write_outputs
+from signatelec.studies.operating_map_report import write_outputs, write_skid_outputs
 
 LOWEST_SPEED_RAD_S = 10.0
 N_SPEEDS = 5
@@ -362,4 +367,35 @@ def run_study(
         "load_rtol": LOAD_RTOL,
         "settle_s": SETTLE_S,
     }
-    return write_outputs(table, out, criteria, time.perf_counter() - t0)
+    paths = write_outputs(table, out, criteria, time.perf_counter() - t0)
+    if not quick:  # the cells below the minimum load that the cache holds: run by run_map
+        skids = run_map(cells(cages=cages, zero_load=True), out, cached_only=True)
+        paths |= write_skid_outputs(skid_status(skids), out, ENERGY_RTOL)
+    return paths
+
+
+def skid_status(table: pd.DataFrame) -> pd.DataFrame:
+    """The status of cells below the minimum load (F_r = 0), where the ball set skids and the
+    quasi-static tier, which assumes rolling, is no reference: ``ok`` when the run completed
+    without a warning other than the current density, its outputs are not NaN and its energy
+    balance closes within :data:`ENERGY_RTOL`; the tier's errors are dropped."""
+    out = table.drop(columns=["resistance_error", "load_error"], errors="ignore").copy()
+    for i, row in out.iterrows():
+        if row.status in ("diverged", "refused", "not run"):
+            continue
+        other = [w for w in str(row.get("warnings") or "").split(" | ") if w]
+        other = [w for w in other if not w.startswith("contact current density")]
+        values = [
+            row.get(c) for c in ("energy_error", "mean_resistance_ohm", "mean_max_ball_load_n")
+        ]
+        failed = [
+            name
+            for name, bad in (
+                ("energy", not row.energy_error <= ENERGY_RTOL),
+                ("NaN output", any(v is None or np.isnan(v) for v in values)),
+                ("warning", bool(other)),
+            )
+            if bad
+        ]
+        out.loc[i, "status"] = "off: " + ", ".join(failed) if failed else "ok"
+    return out

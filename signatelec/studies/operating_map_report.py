@@ -159,3 +159,54 @@ def write_outputs(
     write_bytes_atomic(paths["markdown"], text.encode("utf-8"))
     plot(table, paths["png"])
     return paths
+
+
+def skid_markdown(table: pd.DataFrame, energy_rtol: float) -> str:
+    """The cells below the minimum load (F_r = 0) as Markdown, by bearing and cage model."""
+    kinds = table.status.map(_kind)
+    run = table[kinds != "not run"]
+    lines = [
+        "# Below the minimum load: the bearing skids",
+        "",
+        "F_r = 0: the ring's and the balls' weights are the whole load, far below the bearing's "
+        "minimum load (SKF's F_rm, the lightest load of the operating map). At zero and normal "
+        "clearance friction at the inner contacts alone drives the ball set, under the ring's "
+        "weight (a preload squeezes every ball and the set rolls): every loaded inner "
+        "contact slides and the ball set orbits far below its rolling speed for seconds (the "
+        "6208 at 351.6 rad/s rolls after 2.1 s), so the quasi-static tier, which assumes "
+        "rolling, is no reference here. A cell is **ok** when it completes (with the automatic "
+        "spin-up, which waits for the traction), its outputs are not NaN and its energy balance "
+        f"closes within {100 * energy_rtol:g} % of the work put in; the skid itself is tested "
+        "in `tests/test_operating_map.py` (sliding inner contacts, cage speed under 10 % of "
+        "rolling and rising). An infinite mean resistance is an open circuit at some instants "
+        "(a ring floating in its clearance), physics, not a fault.",
+        "",
+        f"{len(table)} cells: {int((kinds == 'ok').sum())} ok, "
+        f"{int((kinds == 'off').sum())} off, {int((kinds == 'diverged').sum())} diverged, "
+        f"{int((kinds == 'not run').sum())} not run (each asks seconds of traction-limited "
+        "spin-up at 1e-7 s steps; the cells run are the evidence).",
+        "",
+        "| bearing | cage | cells run | ok | worst energy error | largest overlap / R_b | "
+        "spin-up, s | open circuit (R = inf) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for (des, cage), g in run.groupby(["designation", "cage"], sort=False):
+        k = g.status.map(_kind)
+        spin = g.get("spin_up_time_s", pd.Series(dtype=float))
+        lines.append(
+            f"| {des} | {cage} | {len(g)} | {int((k == 'ok').sum())} | "
+            f"{g.energy_error.max():.1e} | {100 * g.largest_overlap_fraction.max():.2f} % | "
+            f"{spin.min():.3g}-{spin.max():.3g} | "
+            f"{int(np.isinf(g.get('mean_resistance_ohm', pd.Series(dtype=float))).sum())} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_skid_outputs(table: pd.DataFrame, out: Path, energy_rtol: float) -> dict[str, Path]:
+    paths = {
+        "skid_parquet": out / "below_minimum_load.parquet",
+        "skid_markdown": out / "below_minimum_load.md",
+    }
+    write_bytes_atomic(paths["skid_parquet"], table.to_parquet(index=False))
+    write_bytes_atomic(paths["skid_markdown"], skid_markdown(table, energy_rtol).encode("utf-8"))
+    return paths
