@@ -284,6 +284,13 @@ def run_cell(cell: Cell, ball_passes: int = BALL_PASSES) -> dict:
     return classify(row)
 
 
+def other_warnings(row) -> list[str]:
+    """The run's warnings but the steady current density's (physics at light load)."""
+    text = row.get("warnings")
+    caught = [w for w in (text if isinstance(text, str) else "").split(" | ") if w]
+    return [w for w in caught if not w.startswith("contact current density")]
+
+
 def classify(row: dict) -> dict:
     """The status of a completed cell: ``ok``, or ``off:`` and the checks it misses. A steady
     current density above the seed's 0.1 A/mm^2 is physics (small contacts at light load), not
@@ -291,8 +298,7 @@ def classify(row: dict) -> dict:
     other warning counts."""
     if row["status"] in ("diverged", "refused", "tier failed", "not run"):
         return row
-    other = [w for w in (row.get("warnings") or "").split(" | ") if w]
-    other = [w for w in other if not w.startswith("contact current density")]
+    other = other_warnings(row)
     if "current_density_warning" not in row:  # cells cached before the column existed
         row["current_density_warning"] = "contact current density" in (row.get("warnings") or "")
     failed = [
@@ -383,8 +389,7 @@ def skid_status(table: pd.DataFrame) -> pd.DataFrame:
     for i, row in out.iterrows():
         if row.status in ("diverged", "refused", "not run"):
             continue
-        other = [w for w in str(row.get("warnings") or "").split(" | ") if w]
-        other = [w for w in other if not w.startswith("contact current density")]
+        other = other_warnings(row)
         values = [
             row.get(c) for c in ("energy_error", "mean_resistance_ohm", "mean_max_ball_load_n")
         ]
