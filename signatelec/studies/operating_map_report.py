@@ -183,8 +183,13 @@ def skid_markdown(table: pd.DataFrame, energy_rtol: float) -> str:
         "",
         f"{len(table)} cells: {int((kinds == 'ok').sum())} ok, "
         f"{int((kinds == 'off').sum())} off, {int((kinds == 'diverged').sum())} diverged, "
-        f"{int((kinds == 'not run').sum())} not run (each asks seconds of traction-limited "
-        "spin-up at 1e-7 s steps; the cells run are the evidence).",
+        f"{int((kinds == 'not run').sum())} not run"
+        + (
+            " (each asks seconds of traction-limited spin-up at 1e-7 s steps; the cells run "
+            "are the evidence)."
+            if (kinds == "not run").any()
+            else "."
+        ),
         "",
         "| bearing | cage | cells run | ok | worst energy error | largest overlap / R_b | "
         "spin-up, s | open circuit (R = inf) |",
