@@ -8,8 +8,8 @@ Usage::
 Both cage models (``balls`` and ``rigid``) unless ``--cage`` names some.
 
 Default OUT_DIR: docs/operating_map. Writes ``operating_map.parquet`` (one row per cell),
-``operating_map.md`` and ``operating_map.png``; the work is done by
-:mod:`signatelec.studies.operating_map`.
+``operating_map.md`` and ``operating_map.png``, and ``below_minimum_load.{md,parquet}`` (the
+cells at F_r = 0 found in the cache); the work is done by :mod:`signatelec.studies.operating_map`.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ DEFAULT_OUT = Path(__file__).resolve().parents[1] / "docs" / "operating_map"
 
 
 def main(argv: list[str] | None = None) -> dict[str, Path]:
-    """Parse the arguments, run the map, return the paths of the three outputs."""
+    """Parse the arguments, run the map, return the paths of its outputs."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
     parser.add_argument("--quick", action="store_true", help="three cells, two ball passes")

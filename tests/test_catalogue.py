@@ -20,6 +20,7 @@ from signatelec.config.catalogue import (
     catalogue_bearing,
     catalogue_entry,
     list_bearings,
+    minimum_load_n,
 )
 from signatelec.physics.kinematics import characteristic_orders
 from signatelec.physics.quasistatic import ball_angles_rad, solve_equilibrium
@@ -290,3 +291,19 @@ def test_orders_are_smith_and_randalls_for_the_cwru_bearings(designation):
     for key, published in SMITH_RANDALL_ORDERS[designation].items():
         half_unit = 0.5 * 10.0 ** (math.floor(math.log10(published)) - 3)
         assert abs(orders[key] - published) <= half_unit, key
+
+
+def test_minimum_load_follows_the_skf_rule():
+    # SKF Rolling bearings 17000/1 EN (2018), deep groove ball bearings, requisite minimum load:
+    # F_rm = k_r (nu n / 1000)^(2/3) (d_m / 100)^2 kN with k_r = 0.025 (62 series; the product
+    # table's value for the 6208) and 0.03 (63 series, 6308); d_m = (d + D) / 2.
+    rpm = 2.0 * np.pi / 60.0  # rad/s per r/min
+    # 6208: d_m = (40 + 80) / 2 = 60 mm; nu n = 1000 -> 0.025 * 0.6^2 kN = 9.0 N
+    assert minimum_load_n("6208", 10.0, 100.0 * rpm) == pytest.approx(9.0, rel=1e-12)
+    # 6308: d_m = (40 + 90) / 2 = 65 mm -> 0.03 * 0.65^2 kN = 12.675 N
+    assert minimum_load_n("6308", 10.0, 100.0 * rpm) == pytest.approx(12.675, rel=1e-12)
+    # (nu n)^(2/3): eight times the speed, four times the load
+    assert minimum_load_n("6205", 68.0, 800.0 * rpm) == pytest.approx(
+        4.0 * minimum_load_n("6205", 68.0, 100.0 * rpm), rel=1e-12
+    )
+    assert minimum_load_n("seed", 68.0, 100.0) == minimum_load_n("6208", 68.0, 100.0)

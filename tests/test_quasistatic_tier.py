@@ -16,6 +16,7 @@ from conftest import make_scene
 
 from signatelec.cli import main
 from signatelec.config.bearing import STANDARD_GRAVITY_M_S2, Bearing
+from signatelec.config.catalogue import catalogue_bearing
 from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.fidelity import PRESETS, apply_fidelity, cage_mass_scale, scale_cage_mass
 from signatelec.engines.quasistatic.tier import (
@@ -170,6 +171,36 @@ def test_tier_equilibrium_satisfies_harris_equations(changes):
     outer_alone = (eq.outer_force_n / coef[1]) ** (1 / n)
     assert free.any()
     assert np.all(approach[free] - outer_alone[free] <= APPROACH_RTOL * np.abs(approach).max())
+
+
+@pytest.mark.parametrize("designation", ["6203", "6208"])
+def test_rigid_cage_holds_its_weight_with_a_pocket_at_the_top(designation):
+    # Balls at psi = 0 and pi (8 or 9 evenly spaced, ball 0 at the bottom) hold no tangential
+    # weight: the cage sinks by the whole pocket clearance c and the vertical pocket closes. The
+    # cage's vertical balance must still hold, sum_k f_k cos psi_k = (m_c + Z m_b / 2) g, with
+    # finite pushes; each inclined pocket then pushes m_b g |sin psi| cot|psi'| with a = c cos psi,
+    # f_k = m_b g |sin psi_k| a_k / sqrt(c^2 - a_k^2) = m_b g cos psi_k (|sin| / |sin| = 1).
+    b = catalogue_bearing(designation)
+    z = b.n_balls
+    psi = np.remainder(2.0 * np.pi * np.arange(z) / z + np.pi, 2.0 * np.pi)[None, :] - np.pi
+    push = rigid_cage_force_n(psi, b)
+    g = STANDARD_GRAVITY_M_S2
+    assert np.isfinite(push).all()
+    needed = (b.rigid_cage_mass_kg + 0.5 * z * b.ball_mass_kg) * g
+    assert (push * np.cos(psi)).sum() == pytest.approx(needed, rel=1e-12)
+    vertical = np.abs(np.abs(np.cos(psi)) - 1.0) < 1e-12
+    inclined = ~vertical & (np.abs(np.sin(psi)) > 1e-12)
+    if z % 2 == 0:  # a ball at the top: its pocket closes, the others hold m_b g cos psi each
+        np.testing.assert_allclose(
+            push[inclined], b.ball_mass_kg * g * np.cos(psi[inclined]), rtol=1e-9
+        )
+    # and the tier solves the ring at 10 rad/s at every instant of a ball-pass period
+    scene = Scene(bearing=b).with_overrides(
+        radial_load_n=0.05 * b.dynamic_load_rating_n, cage="rigid", omega_rad_s=10.0
+    )
+    fraction = np.linspace(0.0, 1.0, 65)[:, None]
+    eq = solve_ring_equilibrium(scene, psi + fraction * 2.0 * np.pi / z)
+    assert np.isfinite(eq.inner_force_n).all()
 
 
 # --- tables, kinematics, DEM agreement and speed -------------------------------------------------

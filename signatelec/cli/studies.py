@@ -106,6 +106,7 @@ def operating_map(out, quick, cages, fresh, cached_only, quiet):
             raise InputError(f"--cage {cage!r}: {option.rule}")
 
     own = ("operating_map.parquet", "operating_map.md", "operating_map.png", ".cache")
+    own += ("below_minimum_load.parquet", "below_minimum_load.md")
     with study_output(out, "operating-map", own, "finished cells are kept in DIR/.cache"):
         paths = run_study(
             out,

@@ -50,6 +50,11 @@ docs/catalogue_sources.md.
     groove ball bearings): C_r, C_0r, reference and limiting speeds, mass; rows 6203 and 6205
     checked. For 6206 and 6305, C_r and C_0r agree with SKF's capped-bearing table 1.2 (6206-2Z,
     6305-2Z); the other SKF values are not yet checked.
+[SKF-min] SKF, *Rolling bearings*, PUB BU/P1 17000/1 EN, 2018, deep groove ball bearings,
+    "Loads", requisite minimum load: F_rm = k_r (nu n / 1000)^(2/3) (d_m / 100)^2 in kN, with
+    nu the operating kinematic viscosity (mm^2/s), n the speed (r/min), d_m = (d + D) / 2 (mm)
+    and the minimum load factor k_r of the product table: 0.025 for the 62 series, 0.03 for the
+    63 series.
 [NSK] the seed, section 2.2.2: NSK gives C_r = 29 100 N for the 6208 (and SKF 32 500 N).
 [ISO 15] ISO 15:2017, boundary dimensions d x D_o x B of the 62 and 63 series.
 Ball sizes given in inches are the standard inch balls the bearings carry (ISO 3290).
@@ -395,6 +400,32 @@ def catalogue_bearing(designation: str = DEFAULT_DESIGNATION, **overrides) -> Be
         values.update({k: v for k, v in derived.items() if k not in overrides})
     values.update({k: asdict(v) if isinstance(v, Material) else v for k, v in overrides.items()})
     return Bearing.from_dict(values)
+
+
+#: Minimum load factor k_r of the deep-groove ball bearings by dimension series [SKF-min].
+MINIMUM_LOAD_FACTOR = {"62": 0.025, "63": 0.03}
+
+
+def minimum_load_n(designation: str, viscosity_mm2_s: float, omega_rad_s: float) -> float:
+    """The radial load below which the balls skid instead of rolling, N [SKF-min].
+
+    ``F_rm = k_r (nu n / 1000)^(2/3) (d_m / 100)^2`` kN, n the inner-ring speed in r/min, nu the
+    lubricant's kinematic viscosity at the operating temperature in mm^2/s. Below it the ball
+    set's inertia and the lubricant's drag need more traction than the load gives (the seed's
+    bearing: a 6208's, whose 2D model it is).
+    """
+    entry = catalogue_entry("6208" if str(designation).strip().lower() == "seed" else designation)
+    factor = MINIMUM_LOAD_FACTOR.get(entry.designation[:2])
+    if factor is None:
+        raise CatalogueError(f"bearing {designation!r}: no minimum load factor for its series")
+    speed_rpm = abs(omega_rad_s) * 60.0 / (2.0 * math.pi)
+    mean_diameter_mm = 0.5e3 * (entry.bore_diameter_m + entry.outside_diameter_m)
+    return (
+        1e3
+        * factor
+        * (viscosity_mm2_s * speed_rpm / 1e3) ** (2.0 / 3.0)
+        * (mean_diameter_mm / 100.0) ** 2
+    )
 
 
 def list_bearings(contact_angle_rad: float = 0.0) -> pd.DataFrame:

@@ -86,14 +86,19 @@ class Lubricant:
         oil = OILS[self.oil]
         return replace(oil, **{f: getattr(self, f) or getattr(oil, f) for f in OVERRIDABLE})
 
-    def resolved(self) -> LubricantProperties:
-        """The oil's data with this section's overrides, at ``temperature_c``."""
+    def kinematic_viscosity_mm2_s(self) -> float:
+        """The oil's kinematic viscosity at ``temperature_c`` (Walther, ASTM D341), mm^2/s."""
         oil = self.oil_data()
-        nu_mm2_s = float(
+        return float(
             walther_kinematic_viscosity_mm2_s(
                 self.temperature_c, oil.viscosity_40c_mm2_s, oil.viscosity_100c_mm2_s
             )
         )
+
+    def resolved(self) -> LubricantProperties:
+        """The oil's data with this section's overrides, at ``temperature_c``."""
+        oil = self.oil_data()
+        nu_mm2_s = self.kinematic_viscosity_mm2_s()
         density = oil.density_kg_m3 * (1.0 - EXPANSION_1_K * (self.temperature_c - 15.0))
         return LubricantProperties(
             oil=oil,

@@ -132,6 +132,13 @@ def rigid_cage_force_n(ball_angle_rad, bearing: Bearing) -> np.ndarray:
     with Delta without bound as the most vertical pocket closes its clearance). Measured in the
     DEM at F_r = 0 (6208, 10 rad/s): the cage sinks 125.9 um for c = 127 um. Friction at the
     races, which may carry part of the weights, is left out.
+
+    A ball at the very top or bottom (psi = 0 or pi) holds no tangential weight: when the other
+    pockets cannot hold the cage, it sinks by the whole c and the vertical pockets close, carrying
+    the rest of the weight straight down (shared among them). The bisection runs on the log of
+    the gap left to that closure, c(1 - |cos psi_k| / max|cos psi|) + g |cos psi_k| computed without
+    cancellation, so a pocket that closes to 1e-40 m (sin psi ~ 1e-16 at psi = pi) is resolved
+    and no push overflows.
     """
     psi = np.asarray(ball_angle_rad, dtype=float)
     g = STANDARD_GRAVITY_M_S2
@@ -139,18 +146,27 @@ def rigid_cage_force_n(ball_angle_rad, bearing: Bearing) -> np.ndarray:
     cos, sin = np.cos(psi), np.abs(np.sin(psi))
     weight = bearing.ball_mass_kg * g
     needed = (bearing.rigid_cage_mass_kg + 0.5 * psi.shape[-1] * bearing.ball_mass_kg) * g
+    steepest = np.abs(cos).max(axis=-1, keepdims=True)
+    high = c / steepest  # the sink at which the most vertical pocket closes
+    open_share = 1.0 - np.abs(cos) / steepest  # >= 0; exactly 0 for the most vertical pockets
 
-    def pushes(delta):
-        a = delta[..., None] * cos
-        return weight * sin * a / np.sqrt(np.maximum(c * c - a * a, 1e-300))
+    def pushes(gap):  # gap = high - Delta, the sink left before the most vertical pocket closes
+        a = (high - gap) * cos
+        room = (c * open_share + gap * np.abs(cos)) * (c + np.abs(a))  # c^2 - a^2
+        return weight * sin * a / np.sqrt(np.maximum(room, 1e-300))
 
-    low = np.zeros(psi.shape[:-1])
-    high = c / np.abs(cos).max(axis=-1)
-    for _ in range(60):  # bisection to ~1e-18 of c: far below any contact overlap
-        mid = 0.5 * (low + high)
-        short = (pushes(mid) * cos).sum(axis=-1) < needed
-        low, high = np.where(short, mid, low), np.where(short, high, mid)
-    return pushes(0.5 * (low + high))
+    log_low = np.log(high[..., 0]) - 690.0  # a gap of e^-690 ~ 1e-300 of c: closed
+    log_high = np.log(high[..., 0])
+    for _ in range(80):  # bisection on log(gap) to ~1e-21 of its range
+        mid = 0.5 * (log_low + log_high)
+        short = (pushes(np.exp(mid)[..., None]) * cos).sum(axis=-1) < needed
+        log_low, log_high = np.where(short, log_low, mid), np.where(short, mid, log_high)
+    push = pushes(np.exp(0.5 * (log_low + log_high))[..., None])
+    # what the inclined walls leave goes through the closed vertical pockets, straight down
+    rest = needed - (push * cos).sum(axis=-1, keepdims=True)
+    vertical = open_share <= 1e-12
+    share = np.where(vertical, 1.0 / vertical.sum(axis=-1, keepdims=True), 0.0)
+    return push + np.where(vertical & (rest > 0.0), rest * share / cos, 0.0)
 
 
 def cage_chain_force_n(ball_angle_rad, bearing: Bearing) -> np.ndarray:

@@ -1,32 +1,38 @@
 """The operating map: every catalogue bearing at its rated speeds, with nothing but defaults.
 
 Each cell is one bearing of :mod:`signatelec.config.catalogue`, one inner-ring speed (geometric
-from :data:`LOWEST_SPEED_RAD_S` to the bearing's limiting speed), one radial load (a share of
-C_r) and one clearance (a preload, zero, or the bearing's normal clearance), for each cage model
-asked for. The scene keeps every default: the time step, spin-up and duration it chooses itself
+from :data:`LOWEST_SPEED_RAD_S` to the bearing's limiting speed), one radial load (the bearing's
+minimum load at that speed, then :data:`LOAD_FRACTIONS` of C_r) and one clearance (a preload,
+zero, or the bearing's normal clearance), for each cage model asked for. The scene keeps every
+default: the time step, spin-up and duration it chooses itself
 (:func:`signatelec.config.scene.resolve_auto`), except a short steady window (settling, then
 :data:`BALL_PASSES` ball passes: the duration follows the ball-pass period) and the energy
 balance (``outputs.energy``). A cell records:
 
-- completion (or the divergence message, with its measured cure);
+- completion (or the divergence message, with its measured cure; or the tier's failure to reach
+  the ring's equilibrium, recorded as ``tier failed`` with its message);
 - the energy balance: ``|W_in - D - E_el - E_kin| / W_in`` at the end of the run;
 - the largest ball/raceway overlap at the recorded instants, as a share of the ball radius (the
   kernel aborts at 10 %);
 - the steady state against the quasi-static tier on the same recorded instants: mean resistance
   within :data:`RESISTANCE_RTOL`, mean largest ball load within :data:`LOAD_RTOL`.
 
-At zero radial load the ring's and the balls' weights are the whole load: those cells need the
-automatic spin-up's traction rule (:func:`signatelec.physics.stability.traction_spin_up_time_s`:
-seconds at speed, the time the ring's weight takes to bring the balls to rolling) and the tier's
-cage pushes (:func:`signatelec.physics.quasistatic.cage_chain_force_n`,
-:func:`~signatelec.physics.quasistatic.rigid_cage_force_n`); they are the costly cells.
+The lightest load is the bearing's minimum load (SKF's F_rm,
+:func:`signatelec.config.catalogue.minimum_load_n`, with the scene's lubricant): below it a ball
+bearing skids, and the tier assumes rolling. At F_r = 0 the ring's and the balls' weights are
+the whole load and the ball set slides for seconds; those cells (``cells(zero_load=True)``) are
+a check of their own, without the tier (:func:`skid_status`: completion, outputs, energy
+balance), written from the cache as ``below_minimum_load.{md,parquet}``; they are run by
+:func:`run_map` (the automatic spin-up waits for the traction,
+:func:`signatelec.physics.stability.traction_spin_up_time_s`: seconds of bearing time).
 
 Normal clearance: the middle of the group N radial internal clearance of ISO 5753-1:2009
 (table 1, deep-groove ball bearings) for the bearing's bore, used as the model's clearance
 Delta_r (seed eq. 14). Preload: 5 um, or half the ISO 76 preload limit when that is smaller.
 
-Finished cells are cached in ``OUT/.cache`` (an interrupted map resumes; ``fresh`` starts over;
-``cached_only`` writes the outputs from the finished cells, the others listed as ``not run``).
+Finished cells are cached in ``OUT/.cache`` under :meth:`Cell.key` (an interrupted map resumes;
+``fresh`` starts over; ``cached_only`` writes the outputs from the finished cells, the others
+listed as ``not run``).
 Writes ``operating_map.parquet``, ``operating_map.md`` and ``operating_map.png``.
 """
 
@@ -46,16 +52,23 @@ import pandas as pd
 
 from signatelec._version import __version__
 from signatelec.config.bearing import INNER, OUTER
-from signatelec.config.catalogue import catalogue_bearing, catalogue_entry, list_bearings
+from signatelec.config.catalogue import (
+    catalogue_bearing,
+    catalogue_entry,
+    list_bearings,
+    minimum_load_n,
+)
 from signatelec.config.scene import Scene, SceneError, preload_limit_m
 from signatelec.io import write_bytes_atomic
 from signatelec.physics.electrical import CurrentDensityWarning
 from signatelec.physics.laws import scene_law
-from signatelec.studies.operating_map_report import write_outputs
+from signatelec.studies.operating_map_report import write_outputs, write_skid_outputs
 
 LOWEST_SPEED_RAD_S = 10.0
 N_SPEEDS = 5
-LOAD_FRACTIONS = (0.0, 0.05, 0.2, 0.5)
+#: The radial loads above the lightest, as shares of C_r; the lightest is the bearing's minimum
+#: load at the cell's speed (:func:`minimum_load_fraction`).
+LOAD_FRACTIONS = (0.05, 0.2, 0.5)
 #: The cage models mapped: the seed's cage balls and the rigid cage.
 CAGES = ("balls", "rigid")
 #: Steady running kept after the set-up: settling, then this many outer-race ball passes.
@@ -111,14 +124,37 @@ class Cell:
     cage: str = "balls"
 
     def key(self, ball_passes: int = BALL_PASSES) -> str:
-        """Cache key: the cell, the scene it runs (so a change of the automatic numerics runs
-        it again) and the version."""
+        """Cache key: the cell, the version, what its scene sets apart from a default ``Scene()``
+        and the numerics it chose (:func:`scene_key_values`), so a scene section or field added
+        with its default keeps the cache while any value the cell runs with does not."""
         try:
-            scene = cell_scene(self, ball_passes).to_json()
+            scene = scene_key_values(cell_scene(self, ball_passes))
         except SceneError as exc:
             scene = str(exc)
         text = json.dumps(asdict(self) | {"version": __version__, "scene": scene}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def _leaves(tree, prefix: str = "") -> dict:
+    if isinstance(tree, dict):
+        return {
+            k: v for name, sub in tree.items() for k, v in _leaves(sub, f"{prefix}{name}.").items()
+        }
+    return {prefix[:-1]: tree}
+
+
+def scene_key_values(scene: Scene) -> dict:
+    """The scene's values that differ from a default ``Scene()`` (the bearing's fields
+    included), plus its resolved automatic numerics (dt, spin-up, duration), by dotted name.
+    A field added to the scene with its default value is absent from both, so it changes no
+    key; a changed default value of an existing field is not seen either: that is a change of
+    the physics, which bumps the version or asks for ``fresh``."""
+    default = _leaves(Scene().to_dict())
+    values = _leaves(scene.to_dict())
+    key = {k: v for k, v in values.items() if k not in default or default[k] != v}
+    for name in ("numerics.dt_s", "procedure.spin_up_time_s", "numerics.duration_s"):
+        key[name] = values[name]
+    return key
 
 
 def clearance_m(cell: Cell) -> float:
@@ -144,18 +180,33 @@ def cell_scene(cell: Cell, ball_passes: int = BALL_PASSES) -> Scene:
     return scene.with_overrides(duration_s=scene.setup_time_s + SETTLE_S + ball_passes / passes_hz)
 
 
+def minimum_load_fraction(designation: str, omega_rad_s: float) -> float:
+    """The bearing's minimum load at ``omega_rad_s`` with the scene's default lubricant
+    (:func:`signatelec.config.catalogue.minimum_load_n`), as a share of its C_r."""
+    viscosity = Scene().lubricant.kinematic_viscosity_mm2_s()
+    bearing = catalogue_bearing(designation)
+    return minimum_load_n(designation, viscosity, omega_rad_s) / bearing.dynamic_load_rating_n
+
+
 def cells(
     designations: Sequence[str] | None = None,
     cages: Sequence[str] = CAGES,
     n_speeds: int = N_SPEEDS,
+    zero_load: bool = False,
 ) -> list[Cell]:
+    """The map's cells: at each speed the minimum load and :data:`LOAD_FRACTIONS`
+    (``zero_load``: F_r = 0 alone, the cells below the minimum load)."""
     designations = list(designations or list_bearings().index)
+
+    def loads(d, w):
+        return (0.0,) if zero_load else (minimum_load_fraction(d, w), *LOAD_FRACTIONS)
+
     return [
         Cell(d, float(w), f, c, cage)
         for cage in cages
         for d in designations
         for w in speeds_rad_s(d, n_speeds)
-        for f in LOAD_FRACTIONS
+        for f in loads(d, float(w))
         for c in ("preload", "zero", "normal")
     ]
 
@@ -221,7 +272,10 @@ def run_cell(cell: Cell, ball_passes: int = BALL_PASSES) -> dict:
     )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        tier = simulate(replace(tier_scene, outputs=replace(tier_scene.outputs, energy=False)))
+        try:
+            tier = simulate(replace(tier_scene, outputs=replace(tier_scene.outputs, energy=False)))
+        except (RuntimeError, ValueError) as exc:  # the tier's equilibrium not reached
+            return row | {"status": "tier failed", "message": f"{type(exc).__name__}: {exc}"}
     d, q = dem.steady(settle_s=SETTLE_S), tier.steady(settle_s=SETTLE_S)
     row["resistance_error"] = float(d.resistance_ohm.mean() / q.resistance_ohm.mean() - 1.0)
     row["load_error"] = float(d.max_ball_load_n.mean() / q.max_ball_load_n.mean() - 1.0)
@@ -230,15 +284,21 @@ def run_cell(cell: Cell, ball_passes: int = BALL_PASSES) -> dict:
     return classify(row)
 
 
+def other_warnings(row) -> list[str]:
+    """The run's warnings but the steady current density's (physics at light load)."""
+    text = row.get("warnings")
+    caught = [w for w in (text if isinstance(text, str) else "").split(" | ") if w]
+    return [w for w in caught if not w.startswith("contact current density")]
+
+
 def classify(row: dict) -> dict:
     """The status of a completed cell: ``ok``, or ``off:`` and the checks it misses. A steady
     current density above the seed's 0.1 A/mm^2 is physics (small contacts at light load), not
     a numerical fault: it is kept in ``current_density_warning``, apart from the status; any
     other warning counts."""
-    if row["status"] in ("diverged", "refused", "not run"):
+    if row["status"] in ("diverged", "refused", "tier failed", "not run"):
         return row
-    other = [w for w in (row.get("warnings") or "").split(" | ") if w]
-    other = [w for w in other if not w.startswith("contact current density")]
+    other = other_warnings(row)
     if "current_density_warning" not in row:  # cells cached before the column existed
         row["current_density_warning"] = "contact current density" in (row.get("warnings") or "")
     failed = [
@@ -313,4 +373,34 @@ def run_study(
         "load_rtol": LOAD_RTOL,
         "settle_s": SETTLE_S,
     }
-    return write_outputs(table, out, criteria, time.perf_counter() - t0)
+    paths = write_outputs(table, out, criteria, time.perf_counter() - t0)
+    if not quick:  # the cells below the minimum load that the cache holds: run by run_map
+        skids = run_map(cells(cages=cages, zero_load=True), out, cached_only=True)
+        paths |= write_skid_outputs(skid_status(skids), out, ENERGY_RTOL)
+    return paths
+
+
+def skid_status(table: pd.DataFrame) -> pd.DataFrame:
+    """The status of cells below the minimum load (F_r = 0), where the ball set skids and the
+    quasi-static tier, which assumes rolling, is no reference: ``ok`` when the run completed
+    without a warning other than the current density, its outputs are not NaN and its energy
+    balance closes within :data:`ENERGY_RTOL`; the tier's errors are dropped."""
+    out = table.drop(columns=["resistance_error", "load_error"], errors="ignore").copy()
+    for i, row in out.iterrows():
+        if row.status in ("diverged", "refused", "not run"):
+            continue
+        other = other_warnings(row)
+        values = [
+            row.get(c) for c in ("energy_error", "mean_resistance_ohm", "mean_max_ball_load_n")
+        ]
+        failed = [
+            name
+            for name, bad in (
+                ("energy", not row.energy_error <= ENERGY_RTOL),
+                ("NaN output", any(v is None or np.isnan(v) for v in values)),
+                ("warning", bool(other)),
+            )
+            if bad
+        ]
+        out.loc[i, "status"] = "off: " + ", ".join(failed) if failed else "ok"
+    return out

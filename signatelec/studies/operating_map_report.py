@@ -16,6 +16,7 @@ COLOURS = {
     "off": "tab:orange",
     "diverged": "tab:red",
     "refused": "tab:grey",
+    "tier failed": "tab:purple",
     "not run": "gainsboro",
 }
 
@@ -53,7 +54,8 @@ def markdown(table: pd.DataFrame, criteria: dict, run_time_s: float | None = Non
         "",
         f"{len(table)} cells: {int((kinds == 'ok').sum())} ok, {int((kinds == 'off').sum())} "
         f"off the tier or the energy balance, {int((kinds == 'diverged').sum())} diverged, "
-        f"{int((kinds == 'refused').sum())} refused"
+        f"{int((kinds == 'refused').sum())} refused, "
+        f"{int((kinds == 'tier failed').sum())} with no quasi-static solution"
         + (f", {int((kinds == 'not run').sum())} not run" if (kinds == "not run").any() else "")
         + ". Steady current density above the seed's "
         f"0.1 A/mm^2 (physics, light loads on small contacts; not counted as a fault): "
@@ -115,12 +117,14 @@ def plot(table: pd.DataFrame, path: Path) -> Path:
     fig = new_figure(4.0 * len(CLEARANCES), 0.5 + 0.9 * len(designations) * len(cages))
     axes = fig.subplots(1, len(CLEARANCES), sharey=True, squeeze=False)[0]
     rows = [(d, c) for c in cages for d in designations]
-    loads = sorted(set(table.load_fraction))
+    # each row's loads by rank at each speed: the lightest (the minimum load) at the bottom
+    rank = table.groupby(["designation", "cage", "omega_rad_s", "clearance"]).load_fraction
+    level = rank.rank(method="dense") - 1.0
+    n_levels = int(level.max()) + 1 if len(level) else 1
     for ax, clearance in zip(axes, CLEARANCES, strict=True):
         part = table[table.clearance == clearance]
         for r in part.itertuples():
-            level = loads.index(r.load_fraction)
-            y = rows.index((r.designation, r.cage)) + 0.2 * (level - (len(loads) - 1) / 2)
+            y = rows.index((r.designation, r.cage)) + 0.2 * (level[r.Index] - (n_levels - 1) / 2)
             ax.scatter(r.omega_rad_s, y, color=COLOURS[_kind(r.status)], s=18)
         ax.set_xscale("log")
         ax.set_title(f"clearance: {clearance}")
@@ -130,8 +134,13 @@ def plot(table: pd.DataFrame, path: Path) -> Path:
     for kind, colour in COLOURS.items():
         axes[-1].scatter([], [], color=colour, label=kind)
     axes[-1].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), title="cell")
+    per_speed = table.groupby(["designation", "omega_rad_s"]).load_fraction.apply(frozenset)
+    common = sorted(frozenset.intersection(*per_speed)) if len(per_speed) else []
+    varying = "the minimum load, " if len(common) < n_levels else ""
     axes[0].set_ylabel(
-        "bearing; within a row, F_r / C_r = " + ", ".join(f"{f:g}" for f in loads) + " upwards"
+        f"bearing; within a row, F_r upwards: {varying}"
+        + ", ".join(f"{f:g}" for f in common)
+        + " C_r"
     )
     return save_figure(fig, path)
 
@@ -149,4 +158,60 @@ def write_outputs(
     text = markdown(table, criteria, run_time_s)
     write_bytes_atomic(paths["markdown"], text.encode("utf-8"))
     plot(table, paths["png"])
+    return paths
+
+
+def skid_markdown(table: pd.DataFrame, energy_rtol: float) -> str:
+    """The cells below the minimum load (F_r = 0) as Markdown, by bearing and cage model."""
+    kinds = table.status.map(_kind)
+    run = table[kinds != "not run"]
+    lines = [
+        "# Below the minimum load: the bearing skids",
+        "",
+        "F_r = 0: the ring's and the balls' weights are the whole load, far below the bearing's "
+        "minimum load (SKF's F_rm, the lightest load of the operating map). At zero and normal "
+        "clearance friction at the inner contacts alone drives the ball set, under the ring's "
+        "weight (a preload squeezes every ball and the set rolls): every loaded inner "
+        "contact slides and the ball set orbits far below its rolling speed for seconds (the "
+        "6208 at 351.6 rad/s rolls after 2.1 s), so the quasi-static tier, which assumes "
+        "rolling, is no reference here. A cell is **ok** when it completes (with the automatic "
+        "spin-up, which waits for the traction), its outputs are not NaN and its energy balance "
+        f"closes within {100 * energy_rtol:g} % of the work put in; the skid itself is tested "
+        "in `tests/test_operating_map.py` (sliding inner contacts, cage speed under 10 % of "
+        "rolling and rising). An infinite mean resistance is an open circuit at some instants "
+        "(a ring floating in its clearance), physics, not a fault.",
+        "",
+        f"{len(table)} cells: {int((kinds == 'ok').sum())} ok, "
+        f"{int((kinds == 'off').sum())} off, {int((kinds == 'diverged').sum())} diverged, "
+        f"{int((kinds == 'not run').sum())} not run"
+        + (
+            " (each asks seconds of traction-limited spin-up at 1e-7 s steps; the cells run "
+            "are the evidence)."
+            if (kinds == "not run").any()
+            else "."
+        ),
+        "",
+        "| bearing | cage | cells run | ok | worst energy error | largest overlap / R_b | "
+        "spin-up, s | open circuit (R = inf) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for (des, cage), g in run.groupby(["designation", "cage"], sort=False):
+        k = g.status.map(_kind)
+        spin = g.get("spin_up_time_s", pd.Series(dtype=float))
+        lines.append(
+            f"| {des} | {cage} | {len(g)} | {int((k == 'ok').sum())} | "
+            f"{g.energy_error.max():.1e} | {100 * g.largest_overlap_fraction.max():.2f} % | "
+            f"{spin.min():.3g}-{spin.max():.3g} | "
+            f"{int(np.isinf(g.get('mean_resistance_ohm', pd.Series(dtype=float))).sum())} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def write_skid_outputs(table: pd.DataFrame, out: Path, energy_rtol: float) -> dict[str, Path]:
+    paths = {
+        "skid_parquet": out / "below_minimum_load.parquet",
+        "skid_markdown": out / "below_minimum_load.md",
+    }
+    write_bytes_atomic(paths["skid_parquet"], table.to_parquet(index=False))
+    write_bytes_atomic(paths["skid_markdown"], skid_markdown(table, energy_rtol).encode("utf-8"))
     return paths
