@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from signatelec.estimation.analysis import analyse_windows
 from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import trace_features
@@ -148,8 +149,7 @@ def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) 
         scores = np.array([d.score_of_distance(float(v)) for v in d2])
     coverage = model.info.get("coverage", DEFAULT_COVERAGE)
     probs = [c for c in pred.columns if c.startswith("regime_probability_")]
-    for i, row in enumerate(rows):
-        out = pred.iloc[i].to_dict()
+    for i, (row, out) in enumerate(zip(rows, pred.to_dict("records"), strict=True)):
         out["in_domain_score"] = float(scores[i])
         out["interval_coverage"] = coverage
         if probs:
@@ -174,8 +174,7 @@ class _Windows:
         self.fs = None
         self.tracked = settings.omega_rad_s
         self.first = True
-        self.pending: list[dict] = []  # windows waiting for the model: (row, features)
-        self.pending_feats: list[dict] = []
+        self.pending: list[dict] = []  # windows waiting for the model
 
     def add(self, chunk) -> None:
         self.t = np.concatenate([self.t, chunk.time_s])
@@ -206,11 +205,11 @@ class _Windows:
     def flush(self) -> None:
         """Ask the model about the pending windows and file them in the table."""
         clock = time.process_time()
-        ok = [row for row in self.pending if "omega_rad_s" in row]
-        _estimate_batch(ok, self.pending_feats, self.model)
+        ok = [row for row in self.pending if "_features" in row]
+        _estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
         if self.pending:
             self.table.parts.append(pd.DataFrame(self.pending))
-        self.pending, self.pending_feats = [], []
+        self.pending = []
         self.table.cpu_s += time.process_time() - clock
 
     def _block(self, final: bool) -> bool:
@@ -239,6 +238,35 @@ class _Windows:
             self.v = self.v[keep:]
         return True
 
+    def _measure(self, windows, fs: float) -> None:
+        """Features of windows [(row, segment, omega)] of one length, analysed together
+        (:func:`~signatelec.estimation.analysis.analyse_windows`), written into the rows (all
+        of them under ``_features``, for the model)."""
+        if not windows:
+            return
+        try:
+            analyses = analyse_windows(
+                np.stack([seg for _, seg, _ in windows]), fs, [om for _, _, om in windows]
+            )
+        except ValueError as exc:
+            for row, _, _ in windows:
+                row["status"] = f"refused: {exc}"
+            return
+        for (row, seg, omega), a in zip(windows, analyses, strict=True):
+            f = trace_features(None, analysis=a)
+            row.update(
+                omega_rad_s=omega,
+                resistance_min_ohm=float(seg.min()),
+                resistance_max_ohm=float(seg.max()),
+                **{name: f[name] for name in KEPT_FEATURES},
+            )
+            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
+                # the found line predicts the next window's speed (kinematics are linear in it)
+                self.tracked = f["ball_pass_found_hz"] / (
+                    expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)
+                )
+            row["_features"] = f
+
     def _estimate(self, lo, hi, start, n_per) -> None:
         clock = time.process_time()
         speed = None if self.v is None else self.v[lo:hi]
@@ -246,7 +274,7 @@ class _Windows:
         where = f"{self.source} at t = {start:.6g} s"
         hop_n = int(round(self.s.hop * self.fs))
         win_n = int(round(self.s.window_s * self.fs))
-        rows, feats, status, ripple = [], [], "ok", "unchecked"
+        rows, status, ripple = [], "ok", "unchecked"
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
@@ -264,6 +292,7 @@ class _Windows:
                 raise
             status, trace = f"refused: {exc}", None
         self.first = False
+        todo = []  # (row, segment, omega) of the windows to measure
         for k in range(n_per):
             t_start = start + k * self.s.hop
             row = {
@@ -286,27 +315,18 @@ class _Windows:
                 if not (math.isfinite(omega) and omega > 0):
                     row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
                     continue
-            elif self.s.track_speed:
-                omega = self.tracked
-            try:
-                f = trace_features(seg, trace.sample_rate_hz, omega)
-            except ValueError as exc:
-                row["status"] = f"refused: {exc}"
-                continue
-            row.update(
-                omega_rad_s=omega,
-                resistance_min_ohm=float(seg.min()),
-                resistance_max_ohm=float(seg.max()),
-                **{name: f[name] for name in KEPT_FEATURES},
-            )
-            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
-                # the found line predicts the next window's speed (kinematics are linear in it)
-                self.tracked = f["ball_pass_found_hz"] / (
-                    expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)
-                )
-            feats.append(f)
+            if self.s.track_speed and speed is None:
+                # the speed comes from the previous window's line: one window at a time
+                self._measure([(row, seg, self.tracked)], trace.sample_rate_hz)
+            else:
+                todo.append((row, seg, omega))
+        # windows of full length in one batch, any others (cut by a repair) one by one
+        full = [w for w in todo if w[1].size == win_n]
+        self._measure(full, trace.sample_rate_hz if trace else 0.0)
+        for w in todo:
+            if w[1].size != win_n:
+                self._measure([w], trace.sample_rate_hz)
         self.pending.extend(rows)
-        self.pending_feats.extend(feats)
         self.table.cpu_s += time.process_time() - clock
         if len(self.pending) >= BATCH_WINDOWS:
             self.flush()
