@@ -136,9 +136,11 @@ def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]
 
 
 def band_mean(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
-    sel = (f >= lo) & (f < hi)
-    if np.any(sel):
-        return float(p[sel].mean())
+    """Mean of ``p`` over the bins of ``f`` (ascending) in [lo, hi); interpolated at the
+    band's centre when no bin is in it."""
+    i, j = np.searchsorted(f, (lo, hi))
+    if j > i:
+        return float(np.add.reduce(p[i:j])) / float(j - i)
     if f.size == 0:
         return 0.0
     return float(np.interp(0.5 * (lo + hi), f, p))
@@ -373,7 +375,7 @@ def _row_statistics(detrended: np.ndarray, residual: np.ndarray, fs: float, f_bp
         "residual_mad": e_mad,
         "residual_white": white,
         "residual_var": np.mean(residual**2, axis=1),
-        "residual_m4": np.mean(residual**4, axis=1),
+        "residual_m4": np.mean(np.square(np.square(residual)), axis=1),
         "raw_skew": raw_skew,
         "raw_kurtosis": raw_kurt,
     }
@@ -381,7 +383,8 @@ def _row_statistics(detrended: np.ndarray, residual: np.ndarray, fs: float, f_bp
     if n >= FOLD_BINS:
         t = np.arange(n) / fs
         f = np.asarray(f_bp, float)[:, None]
-        b = np.floor((t * f % 1.0) * FOLD_BINS).astype(int) % FOLD_BINS
+        cycles = t * f  # >= 0: cycles - floor(cycles) is cycles % 1, exactly
+        b = np.floor((cycles - np.floor(cycles)) * FOLD_BINS).astype(int) % FOLD_BINS
         b += FOLD_BINS * np.arange(rows)[:, None]
         size = rows * FOLD_BINS
         counts = np.bincount(b.ravel(), minlength=size).reshape(rows, FOLD_BINS)

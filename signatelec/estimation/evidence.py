@@ -52,7 +52,7 @@ Z90 = stats.norm.ppf(0.95)
 #: standard deviation, per target: split-conformal 90 % quantile over the stretches of the
 #: calibration records of ``signatelec study monitor`` (docs/monitor: held-out paper-fidelity
 #: DEM states drawn apart from the acceptance records', default model, 0.2 s windows).
-BIAS_RATIO = {"radial_load_n": 0.3, "epsilon": 0.3, "clearance_m": 0.3}
+BIAS_RATIO = {"radial_load_n": 0.714, "epsilon": 0.516, "clearance_m": 0.590}
 #: Fewest windows on either side of a change.
 MIN_SEGMENT = 3
 #: Class outputs of the model, each with ``<name>_probability_<class>`` columns.

@@ -4,10 +4,13 @@
 read_chunks`: memory bounded whatever the file's length, or a CSV file followed as it grows),
 cuts it into windows of ``window_s`` every ``hop_s`` and estimates each as ``signatelec
 estimate`` does (:mod:`signatelec.estimation.estimate`: the same features, in-domain score and
-model), the model asked once per block of windows. The trace's reading and sanity checks are
-those of ``estimate``, applied per block of :data:`BLOCK_S`: each block is repaired or refused
-by :func:`~signatelec.measurement.traces.prepare_trace` and its first :data:`SCREEN_S` screened
-for the level and the ball-pass line (:func:`~signatelec.measurement.sanity.check_level`,
+model): the windows of a block analysed together
+(:func:`~signatelec.estimation.analysis.analyse_windows`, equal to the one-window analysis),
+the model asked once per batch of windows. The trace's reading and sanity checks are those of
+``estimate``, applied per block of :data:`BLOCK_S`: each block is repaired or refused by
+:func:`~signatelec.measurement.traces.prepare_trace`; the first block's first
+:data:`SCREEN_S`, then one block's every :data:`SCREEN_EVERY_S`, is screened for the level and
+the ball-pass line (:func:`~signatelec.measurement.sanity.check_level`,
 :func:`~signatelec.measurement.ripple.find_ripple`). A first block that is refused refuses the
 trace (one line: wrong column, unit, speed, ...); a later one is kept as windows with a
 ``status`` saying why they carry no estimate. The set-up-transient trim of ``estimate`` is not
@@ -49,11 +52,16 @@ WINDOW_S = 0.2
 #: Trace per block of windows: repaired and screened together.
 BLOCK_S = 2.0
 #: Windows whose features the model is asked about in one batch (one thread: scikit-learn's
-#: threaded prediction of a few hundred rows is ~10x slower on busy cores, and 100 rows take
-#: ~0.25 ms each against ~1 ms one block of 10 at a time).
-BATCH_WINDOWS = 100
+#: threaded prediction is ~10x slower on busy cores). Per window, ~0.09 ms in batches of 1000,
+#: 0.14 ms of 300, 0.24 ms of 100; a followed file is answered every 100 windows.
+BATCH_WINDOWS = 1000
+FOLLOW_BATCH_WINDOWS = 100
 #: Length of each block's ripple and level screening (the ripple search costs ~T^2).
 SCREEN_S = 0.5
+#: Trace between two screenings of the ripple (the first block is always screened): a speed
+#: gone wrong is refused within this; screening every block cost ~1.4 ms per 0.2 s window at
+#: 50 kHz, more than the window's features.
+SCREEN_EVERY_S = 10.0
 #: Features kept per window beside the estimate (the change detector reads some).
 KEPT_FEATURES = (
     "level_mean_ohm",
@@ -174,6 +182,8 @@ class _Windows:
         self.fs = None
         self.tracked = settings.omega_rad_s
         self.first = True
+        self.ripple = "unchecked"  # the last screening's ripple status
+        self.next_screen_s = -math.inf
         self.pending: list[dict] = []  # windows waiting for the model
 
     def add(self, chunk) -> None:
@@ -284,9 +294,12 @@ class _Windows:
                 omega_block,
                 source=where if not self.first else self.source,
             )
-            ripple, note = _screen(trace, omega_block, self.model, self.first)
-            if note:
-                self.table.notes.append(note)
+            if self.first or start >= self.next_screen_s:
+                ripple, note = _screen(trace, omega_block, self.model, self.first)
+                self.ripple, self.next_screen_s = ripple, start + SCREEN_EVERY_S
+                if note:
+                    self.table.notes.append(note)
+            ripple = self.ripple
         except TraceError as exc:
             if self.first:
                 raise
@@ -328,7 +341,7 @@ class _Windows:
                 self._measure([w], trace.sample_rate_hz)
         self.pending.extend(rows)
         self.table.cpu_s += time.process_time() - clock
-        if len(self.pending) >= BATCH_WINDOWS:
+        if len(self.pending) >= (FOLLOW_BATCH_WINDOWS if self.s.follow else BATCH_WINDOWS):
             self.flush()
 
 
