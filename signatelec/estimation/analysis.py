@@ -188,18 +188,21 @@ def _solve_one(design: np.ndarray, r: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(design.T, r, rcond=None)[0]
 
 
-def _solve(design: np.ndarray, r: np.ndarray) -> np.ndarray:
+def _solve(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least squares per row by the normal equations (columns nearly orthogonal over many
-    periods); lstsq when the trace is too short for that or the equations are singular."""
+    periods); lstsq when the trace is too short for that or the equations are singular.
+    Returns (solution, design r) per row: r.r - solution.(design r) is the residual sum of
+    squares (the residual is orthogonal to the columns)."""
     rows, m, n = design.shape
     if n >= 4 * m:
         gram, rhs = _normal_equations(design, r)
         ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / m * np.eye(m)
         try:
-            return np.linalg.solve(gram + ridge, rhs[:, :, None])[:, :, 0]
+            return np.linalg.solve(gram + ridge, rhs[:, :, None])[:, :, 0], rhs
         except np.linalg.LinAlgError:
             pass
-    return np.array([_solve_one(design[w], r[w]) for w in range(rows)])
+    sol = np.array([_solve_one(design[w], r[w]) for w in range(rows)])
+    return sol, np.matmul(design, r[:, :, None])[:, :, 0]
 
 
 def _phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -254,14 +257,17 @@ def _refine_frequency(
     n = r.shape[1]
     t_var = float(np.mean(tc * tc))
     design = _harmonic_design(tc, f, ks, derivative=True)
-    sol = _solve(design, r)
+    # the level (a column) taken out first: the residual sum of squares from the normal
+    # equations then cancels only the ripple's power, not the level's
+    r = r - r.mean(axis=1, keepdims=True)
+    sol, rhs = _solve(design, r)
     num, den = np.zeros(f.size), np.zeros(f.size)
     for j, k in enumerate(ks):
         a, b, p, q = sol[:, 2 + 4 * j : 6 + 4 * j].T
         num += k * (p * b - q * a)
         den += k * k * (a * a + b * b)
-    resid = r - _apply(design, sol)
-    sigma2 = np.sum(resid * resid, axis=1) / max(n - design.shape[1], 1)
+    rss = np.maximum(np.einsum("ij,ij->i", r, r) - np.einsum("ij,ij->i", sol, rhs), 0.0)
+    sigma2 = rss / max(n - design.shape[1], 1)
     moves = (den > 0.0) & (t_var > 0.0)
     safe = np.where(moves, den, 1.0)
     d = num / safe
@@ -450,7 +456,7 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
     n_fitted = np.zeros(rows, dtype=int)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
         design = _harmonic_design(tc, f_bp[idx], list(ks), derivative=False)
-        sol = _solve(design, x[idx])
+        sol = _solve(design, x[idx])[0]
         level[idx], slope[idx] = sol[:, 0], sol[:, 1]
         for j, k in enumerate(ks):
             coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]
