@@ -224,3 +224,27 @@ def test_first_harmonic_at_zero_clearance(fraction):
         st = simulate(scene).steady()
     f = F.trace_features(st["resistance_ohm"].to_numpy(), 20000.0, 500.0)
     assert 1.20e-3 < f["h1_rel"] < 1.29e-3
+
+
+def test_windows_analysed_together_equal_one_by_one(clean_signal):
+    """The monitor's batch of windows (one transform and one set of least-squares products
+    for all) gives each window the features ``estimate`` gives it alone: consecutive 20 ms
+    windows of the 50 kHz signal with 0.2 % noise, each at its own speed (one 1 % off, so that
+    its ball-pass search and Welch segments differ), and a noise-free one. Round-off only:
+    measured equal to the last bit; 1e-9 relative allowed (features are read by trees whose
+    thresholds sit at float32 values of the training table)."""
+    from signatelec.estimation.analysis import analyse_windows
+
+    fs = 50000.0
+    r = clean_signal[fs]
+    rng = np.random.default_rng(7)
+    n = int(0.02 * fs)
+    rows = r[: 6 * n].reshape(6, n).copy()
+    rows[:5] *= 1.0 + 0.002 * rng.standard_normal((5, n))
+    omegas = np.array([500.0, 500.0, 505.0, 500.0, 500.0, 500.0])
+    together = [F.trace_features(None, analysis=a) for a in analyse_windows(rows, fs, omegas)]
+    for row, omega, batch in zip(rows, omegas, together, strict=True):
+        alone = F.trace_features(row, fs, omega)
+        assert list(batch) == list(alone)
+        for name, value in alone.items():
+            assert batch[name] == pytest.approx(value, rel=1e-9, abs=1e-300), name

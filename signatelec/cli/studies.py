@@ -164,6 +164,7 @@ def monitor_study(out, bank_dir, quick, quiet):
         "monitor.md",
         "monitor_example.png",
         "monitor_stretches.parquet",
+        "monitor_calibration.parquet",
         "monitor_changes.parquet",
         "monitor_throughput.parquet",
     )

@@ -22,12 +22,14 @@ import numpy as np
 from scipy import fft as sfft
 
 from signatelec.config.bearing import Bearing
-from signatelec.measurement.ripple import padded_power
+from signatelec.measurement.ripple import PAD
 from signatelec.measurement.traces import N_HARMONICS, SEARCH_REL
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Ball passes per Welch segment: resolution f_bp / 4, bins at multiples of f_bp / 4.
 PASSES_PER_SEGMENT = 4
+#: Phase bins of the folded raw trace.
+FOLD_BINS = 16
 
 
 @dataclass(frozen=True)
@@ -37,7 +39,8 @@ class TraceAnalysis:
     ``coefficients[k - 1]`` is the complex amplitude c_k of harmonic k, the trace being
     ``level + drift t + Re(sum_k c_k exp(2 pi i k f_bp t))`` (t from the middle of the trace);
     ``noise_density[k - 1]``
-    the one-sided density (ohm^2/Hz) of the residual around k f_bp.
+    the one-sided density (ohm^2/Hz) of the residual around k f_bp; ``statistics`` the
+    whole-trace statistics of :func:`_row_statistics`.
     """
 
     sample_rate_hz: float
@@ -57,6 +60,7 @@ class TraceAnalysis:
     psd: np.ndarray
     residual_psd: np.ndarray
     n_fitted: int
+    statistics: dict
 
     @property
     def n_harmonics(self) -> int:
@@ -78,29 +82,17 @@ def _as_trace(resistance_ohm) -> np.ndarray:
     return r
 
 
-def _linear_fit(r: np.ndarray, t: np.ndarray) -> tuple[float, float]:
-    if r.size < 2:
-        return float(r.mean()), 0.0
-    tc = t - t.mean()
-    denom = float(np.sum(tc * tc))
-    slope = float(np.sum(tc * (r - r.mean()))) / denom if denom > 0 else 0.0
-    return float(r.mean()), slope
-
-
 def _find_ball_pass(
-    x: np.ndarray, fs: float, f_exp: float, n_harmonics: int, search_rel: float
-) -> tuple[float, float]:
+    spec: np.ndarray, df: float, duration: float, fs: float, f_exp: float, n_harmonics: int,
+    search_rel: float,
+) -> tuple[float, float]:  # fmt: skip
     """f_bp maximising the summed power of its harmonics in the zero-padded Hann spectrum
-    (:func:`~signatelec.measurement.ripple.padded_power`, the sanity layer's).
+    ``spec`` of bin width ``df`` (:func:`~signatelec.measurement.ripple.padded_power`, the
+    sanity layer's).
 
     Returns (frequency, peak-to-median ratio of the harmonic sum over the search band). The sum
     over harmonics keeps the search on f_bp where the first harmonic vanishes (comb zeros).
     """
-    n = x.size
-    if n < 4 or f_exp <= 0.0:
-        return f_exp, 1.0
-    spec, df = padded_power(x, fs)
-    duration = n / fs
     step = min(1.0 / (8.0 * duration * n_harmonics), 1e-3 * f_exp)
     lo, hi = f_exp * (1.0 - search_rel), f_exp * (1.0 + search_rel)
     cand = np.arange(lo, hi + step, step)
@@ -121,26 +113,34 @@ def _find_ball_pass(
     return f, float(total[i] / med) if med > 0 else 1.0
 
 
-def _welch(x: np.ndarray, fs: float, f_bp: float, passes: int) -> tuple[np.ndarray, np.ndarray]:
-    """One-sided Welch density (Hann, half overlap), segments of ``passes`` ball passes.
+def _padded_power_rows(x: np.ndarray, fs: float) -> tuple[np.ndarray, float]:
+    """:func:`~signatelec.measurement.ripple.padded_power` of each row, in one transform."""
+    n = x.shape[1]
+    n_fft = sfft.next_fast_len(PAD * n, real=True)
+    return np.abs(sfft.rfft(x * np.hanning(n), n_fft, axis=1)) ** 2, fs / n_fft
+
+
+def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided Welch density (Hann, half overlap) of each row, segments of ``nper`` samples
+    (:func:`_welch_rows`: ``passes`` ball passes).
 
     The same estimate as ``scipy.signal.welch(..., detrend=False)``, with the segments
     transformed in one batch (a 1 s trace at 50 kHz has ~200 of them).
     """
-    nper = int(round(passes * fs / f_bp)) if f_bp > 0 else x.size
-    nper = max(1, min(nper, x.size))
     step = max(nper // 2, 1)
     win = np.hanning(nper + 1)[:-1] if nper > 1 else np.ones(1)  # periodic Hann
-    seg = np.lib.stride_tricks.sliding_window_view(x, nper)[::step] * win
-    p = np.mean(np.abs(sfft.rfft(seg, axis=1)) ** 2, axis=0) / (fs * float(win @ win))
-    p[1 : (None if nper % 2 else -1)] *= 2.0
+    seg = np.lib.stride_tricks.sliding_window_view(x, nper, axis=1)[:, ::step] * win
+    p = np.mean(np.abs(sfft.rfft(seg, axis=2)) ** 2, axis=1) / (fs * float(win @ win))
+    p[:, 1 : (None if nper % 2 else -1)] *= 2.0
     return sfft.rfftfreq(nper, 1.0 / fs), p
 
 
 def band_mean(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
-    sel = (f >= lo) & (f < hi)
-    if np.any(sel):
-        return float(p[sel].mean())
+    """Mean of ``p`` over the bins of ``f`` (ascending) in [lo, hi); interpolated at the
+    band's centre when no bin is in it."""
+    i, j = np.searchsorted(f, (lo, hi))
+    if j > i:
+        return float(np.add.reduce(p[i:j])) / float(j - i)
     if f.size == 0:
         return 0.0
     return float(np.interp(0.5 * (lo + hi), f, p))
@@ -154,58 +154,94 @@ def band_power(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
     return band_mean(f, p, lo, hi) * (hi - lo)
 
 
-#: Rows per block of the least-squares products: below the size at which OpenBLAS spreads a
+#: Samples per block of the least-squares products: below the size at which OpenBLAS spreads a
 #: product over threads, which on busy cores makes it ~30x slower, not faster.
 _BLOCK = 1024
 
 
 def _normal_equations(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """design' design and design' r, summed over blocks of rows."""
-    m = design.shape[1]
-    gram, rhs = np.zeros((m, m)), np.zeros(m)
-    for i in range(0, design.shape[0], _BLOCK):
-        d = design[i : i + _BLOCK]
-        gram += d.T @ d
-        rhs += d.T @ r[i : i + _BLOCK]
+    """design design' and design r per row, summed over blocks of samples (design: rows,
+    columns, samples)."""
+    rows, m, n = design.shape
+    gram, rhs = np.zeros((rows, m, m)), np.zeros((rows, m))
+    for i in range(0, n, _BLOCK):
+        d = design[:, :, i : i + _BLOCK]
+        gram += np.matmul(d, d.transpose(0, 2, 1))
+        rhs += np.matmul(d, r[:, i : i + _BLOCK, None])[:, :, 0]
     return gram, rhs
 
 
 def _apply(design: np.ndarray, sol: np.ndarray) -> np.ndarray:
-    """design @ sol, column by column (no threaded BLAS either)."""
-    out = np.zeros(design.shape[0])
-    for j, c in enumerate(sol):
-        if c != 0.0:
-            out += c * design[:, j]
+    """design' sol per row, column by column (no threaded BLAS either)."""
+    out = np.zeros((design.shape[0], design.shape[2]))
+    for j in range(design.shape[1]):
+        out += sol[:, j, None] * design[:, j]
     return out
 
 
-def _solve(design: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Least squares by the normal equations (columns nearly orthogonal over many periods);
-    lstsq when the trace is too short for that."""
-    n, m = design.shape
+def _solve_one(design: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Least squares of one row (design: columns, samples) by lstsq."""
+    m, n = design.shape
+    if n < m:
+        sol = np.linalg.lstsq(design[:n].T, r, rcond=None)[0]
+        return np.concatenate([sol, np.zeros(m - n)])
+    return np.linalg.lstsq(design.T, r, rcond=None)[0]
+
+
+def _solve_normal(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray | None:
+    """The normal equations' solution per row (a 1e-12 ridge), None if they are singular."""
+    m = gram.shape[1]
+    ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / m * np.eye(m)
+    try:
+        return np.linalg.solve(gram + ridge, rhs[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        return None
+
+
+def _solve(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares per row by the normal equations (columns nearly orthogonal over many
+    periods); lstsq when the trace is too short for that or the equations are singular.
+    Returns (solution, design r) per row: r.r - solution.(design r) is the residual sum of
+    squares (the residual is orthogonal to the columns)."""
+    rows, m, n = design.shape
     if n >= 4 * m:
         gram, rhs = _normal_equations(design, r)
-        try:
-            return np.linalg.solve(gram + 1e-12 * np.trace(gram) / m * np.eye(m), rhs)
-        except np.linalg.LinAlgError:
-            pass
-    if n < m:
-        sol = np.linalg.lstsq(design[:, :n], r, rcond=None)[0]
-        return np.concatenate([sol, np.zeros(m - n)])
-    return np.linalg.lstsq(design, r, rcond=None)[0]
+        sol = _solve_normal(gram, rhs)
+        if sol is not None:
+            return sol, rhs
+    sol = np.array([_solve_one(design[w], r[w]) for w in range(rows)])
+    return sol, np.matmul(design, r[:, :, None])[:, :, 0]
 
 
-def _harmonic_design(tc: np.ndarray, f: float, ks: list[int], derivative: bool) -> np.ndarray:
-    """Columns 1, tc, cos and sin of 2 pi k f tc for k in ks [, tc cos, tc sin]."""
-    z1 = np.exp(2j * math.pi * f * tc)
+def _phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """exp(2 pi i f[w] tc) per row, tc uniform: the product of a phasor over a block of
+    sqrt(n) samples and one per block start (2 sqrt(n) complex exponentials per row instead
+    of n; the phase of each factor is exact to round-off, as is their product)."""
+    n = tc.size
+    if n < 2:
+        return np.exp(2j * math.pi * f[:, None] * tc)
+    dt = tc[1] - tc[0]
+    block = max(1, int(math.isqrt(n)))
+    within = np.exp(2j * math.pi * f[:, None] * (tc[0] + dt * np.arange(block)))
+    starts = np.exp(2j * math.pi * f[:, None] * (dt * block * np.arange(-(-n // block))))
+    return (starts[:, :, None] * within[:, None, :]).reshape(f.size, -1)[:, :n]
+
+
+def _harmonic_design(
+    tc: np.ndarray, f: np.ndarray, ks: list[int], derivative: bool, z1: np.ndarray | None = None
+) -> np.ndarray:
+    """Per row (frequency f[w]): columns 1, tc, cos and sin of 2 pi k f tc for k in ks
+    [, tc cos, tc sin]; shape (rows, columns, samples). ``z1``: the phasors
+    :func:`_phasors` of ``tc`` and ``f``, when already known."""
+    z1 = _phasors(tc, f) if z1 is None else z1
     per = 4 if derivative else 2
-    design = np.empty((tc.size, 2 + per * len(ks)), order="F")
+    design = np.empty((f.size, 2 + per * len(ks), tc.size))
     design[:, 0] = 1.0
     design[:, 1] = tc
     zk = np.ones_like(z1)
     k_prev = 0
     for j, k in enumerate(ks):
-        zk = zk * z1 ** (k - k_prev)
+        zk = zk * z1 if k - k_prev == 1 else zk * z1 ** (k - k_prev)
         k_prev = k
         c = 2 + per * j
         design[:, c] = zk.real
@@ -216,10 +252,28 @@ def _harmonic_design(tc: np.ndarray, f: float, ks: list[int], derivative: bool) 
     return design
 
 
+def _harmonic_normal_equations(
+    tc: np.ndarray, f: np.ndarray, ks: list[int], r: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_normal_equations` of the :func:`_harmonic_design` with derivative columns,
+    the design built block by block of samples and never whole (the same numbers: each
+    block's columns are those of the whole design's slice; ~10 % less time, the blocks
+    staying in cache)."""
+    z1 = _phasors(tc, f)
+    m = 2 + 4 * len(ks)
+    gram, rhs = np.zeros((f.size, m, m)), np.zeros((f.size, m))
+    for i in range(0, tc.size, _BLOCK):
+        d = _harmonic_design(tc[i : i + _BLOCK], f, ks, True, z1[:, i : i + _BLOCK])
+        gram += np.matmul(d, d.transpose(0, 2, 1))
+        rhs += np.matmul(d, r[:, i : i + _BLOCK, None])[:, :, 0]
+    return gram, rhs
+
+
 def _refine_frequency(
-    r: np.ndarray, tc: np.ndarray, f: float, ks: list[int], span: float, iterations: int = 1
-) -> float:
-    """Gauss-Newton steps on the frequency of the harmonic fit (at most ``span`` from ``f``).
+    r: np.ndarray, tc: np.ndarray, f: np.ndarray, ks: list[int], span: float
+) -> np.ndarray:
+    """One Gauss-Newton step per row on the frequency of the harmonic fit (at most ``span``
+    from ``f``).
 
     With cos(k(w + d)t) ~ cos(kwt) - k d t sin(kwt), the fitted t cos, t sin terms of harmonic k
     are (k d b_k, -k d a_k); d is their least-squares ratio, weighted by k^2 |c_k|^2. One step
@@ -228,29 +282,31 @@ def _refine_frequency(
     error (24 sigma^2 / (N T^2 sum k^2 |c_k|^2))^(1/2): a step the noise could have made moves
     little, so weak ripples keep the starting frequency instead of the noise's.
     """
-    f0 = f
-    n = r.size
+    n = r.shape[1]
     t_var = float(np.mean(tc * tc))
-    for _ in range(iterations):
-        design = _harmonic_design(tc, f, ks, derivative=True)
-        sol = _solve(design, r)
-        num = den = 0.0
-        for j, k in enumerate(ks):
-            a, b, p, q = sol[2 + 4 * j : 6 + 4 * j]
-            num += k * (p * b - q * a)
-            den += k * k * (a * a + b * b)
-        if den <= 0.0 or t_var <= 0.0:
-            break
-        resid = r - _apply(design, sol)
-        sigma2 = float(np.sum(resid * resid)) / max(n - design.shape[1], 1)
-        d = num / den
-        se2 = 2.0 * sigma2 / (n * t_var * den)
-        d *= d * d / (d * d + se2)
-        step = d / (2.0 * math.pi)
-        f = float(np.clip(f + step, f0 - span, f0 + span))
-        if abs(step) < 1e-6 * f:
-            break
-    return f
+    m = 2 + 4 * len(ks)
+    # the level (a column) taken out first: the residual sum of squares from the normal
+    # equations then cancels only the ripple's power, not the level's
+    r = r - r.mean(axis=1, keepdims=True)
+    gram, rhs = _harmonic_normal_equations(tc, f, ks, r)
+    sol = _solve_normal(gram, rhs)
+    if sol is None:
+        sol, rhs = _solve(_harmonic_design(tc, f, ks, derivative=True), r)
+    num, den = np.zeros(f.size), np.zeros(f.size)
+    for j, k in enumerate(ks):
+        a, b, p, q = sol[:, 2 + 4 * j : 6 + 4 * j].T
+        num += k * (p * b - q * a)
+        den += k * k * (a * a + b * b)
+    rss = np.maximum(np.einsum("ij,ij->i", r, r) - np.einsum("ij,ij->i", sol, rhs), 0.0)
+    sigma2 = rss / max(n - m, 1)
+    moves = (den > 0.0) & (t_var > 0.0)
+    safe = np.where(moves, den, 1.0)
+    d = num / safe
+    se2 = 2.0 * sigma2 / (n * t_var * safe) if t_var > 0.0 else np.zeros(f.size)
+    d2 = d * d
+    d = np.where(d2 + se2 > 0.0, d * d2 / np.where(d2 + se2 > 0.0, d2 + se2, 1.0), 0.0)
+    step = np.where(moves, d / (2.0 * math.pi), 0.0)
+    return np.clip(f + step, f - span, f + span)
 
 
 def analyse_trace(
@@ -274,55 +330,206 @@ def analyse_trace(
     fs = float(sample_rate_hz)
     if not fs > 0.0 or not math.isfinite(fs):
         raise ValueError(f"sample_rate_hz = {sample_rate_hz!r}: must be a finite rate > 0")
-    return _analyse(r, fs, omega_rad_s, n_harmonics, bearing, search_rel, passes_per_segment)
+    omega = np.array([float(omega_rad_s)])
+    return _analyse(r[None], fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)[0]
 
 
-def _analyse(r, fs, omega_rad_s, n_harmonics, bearing, search_rel, passes_per_segment):
-    n = r.size
+def _by_harmonics(f_bp: np.ndarray, n_harmonics: int, fs: float) -> dict[tuple, np.ndarray]:
+    """Rows grouped by the harmonics below 0.45 fs that their f_bp allows."""
+    groups: dict[tuple, list[int]] = {}
+    for w, f in enumerate(f_bp):
+        ks = tuple(k for k in range(1, n_harmonics + 1) if k * f < 0.45 * fs)
+        groups.setdefault(ks, []).append(w)
+    return {ks: np.asarray(rows) for ks, rows in groups.items()}
+
+
+def _welch_rows(x: np.ndarray, fs: float, f_bp: np.ndarray, passes: int) -> list[tuple]:
+    """(freq, density) of each row by :func:`_welch`, rows of one segment length together."""
+    n = x.shape[1]
+    nper = [max(1, min(int(round(passes * fs / f)) if f > 0 else n, n)) for f in f_bp]
+    out: list = [None] * len(nper)
+    for length in set(nper):
+        rows = [w for w, v in enumerate(nper) if v == length]
+        freq, p = _welch(x[rows], fs, length)
+        for i, w in enumerate(rows):
+            out[w] = (freq, p[i])
+    return out
+
+
+def _sorted_median(s: np.ndarray) -> np.ndarray:
+    """np.median of rows sorted along the last axis."""
+    h = s.shape[-1] // 2
+    return s[..., h] if s.shape[-1] % 2 else (s[..., h - 1] + s[..., h]) / 2.0
+
+
+def _sorted_percentile(s: np.ndarray, q: float) -> np.ndarray:
+    """np.percentile (linear) of rows sorted along the last axis, ``q`` in [0, 1]: the same
+    interpolation as numpy's (from the nearer neighbour when the weight exceeds 1/2)."""
+    v = q * (s.shape[-1] - 1)
+    i = int(math.floor(v))
+    j = min(i + 1, s.shape[-1] - 1)
+    g = v - i
+    a, b = s[..., i], s[..., j]
+    return b - (b - a) * (1.0 - g) if g >= 0.5 else a + (b - a) * g
+
+
+def shape_stats(w: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(crest, skewness, excess kurtosis, asymmetry) of zero-mean waveforms along the last
+    axis; (1, 0, 0, 0) for a flat one."""
+    w2 = w * w
+    var = w2.mean(axis=-1)
+    flat = var <= 0.0
+    var_s = np.where(flat, 1.0, var)
+    sd = np.sqrt(var_s)
+    wmax, wmin = w.max(axis=-1), w.min(axis=-1)
+    crest = np.where(flat, 1.0, np.maximum(wmax, -wmin) / sd)
+    skew = np.where(flat, 0.0, (w2 * w).mean(axis=-1) / sd**3)
+    kurt = np.where(flat, 0.0, (w2 * w2).mean(axis=-1) / var_s**2 - 3.0)
+    span = np.where(wmax > wmin, wmax - wmin, 1.0)
+    asym = np.where(flat | (wmax <= wmin), 0.0, (wmax + wmin) / span)
+    return crest, skew, kurt, asym
+
+
+def _row_statistics(detrended: np.ndarray, residual: np.ndarray, fs: float, f_bp) -> list[dict]:
+    """The statistics of whole rows that the level, noise and ripple features read (medians
+    and quartiles from one sort per row, moments, the trace folded at f_bp into
+    :data:`FOLD_BINS` phase bins), one dict per row."""
+    rows, n = detrended.shape
+    s = np.sort(detrended, axis=1)
+    med = _sorted_median(s)
+    mad = _sorted_median(np.sort(np.abs(detrended - med[:, None]), axis=1))
+    e_med = _sorted_median(np.sort(residual, axis=1))
+    e_mad = _sorted_median(np.sort(np.abs(residual - e_med[:, None]), axis=1))
+    e_std = residual.std(axis=1)
+    white = np.diff(residual, axis=1).std(axis=1) / math.sqrt(2.0) if n > 2 else e_std
+    _, raw_skew, raw_kurt, _ = shape_stats(detrended - detrended.mean(axis=1, keepdims=True))
+    stats = {
+        "median": med,
+        "mad": mad,
+        "q75": _sorted_percentile(s, 0.75),
+        "q25": _sorted_percentile(s, 0.25),
+        "residual_std": e_std,
+        "residual_mad": e_mad,
+        "residual_white": white,
+        "residual_var": np.mean(residual**2, axis=1),
+        "residual_m4": np.mean(np.square(np.square(residual)), axis=1),
+        "raw_skew": raw_skew,
+        "raw_kurtosis": raw_kurt,
+    }
+    out = [{k: float(v[w]) for k, v in stats.items()} for w in range(rows)]
+    if n >= FOLD_BINS:
+        t = np.arange(n) / fs
+        f = np.asarray(f_bp, float)[:, None]
+        cycles = t * f  # >= 0: cycles - floor(cycles) is cycles % 1, exactly
+        b = np.floor((cycles - np.floor(cycles)) * FOLD_BINS).astype(int) % FOLD_BINS
+        b += FOLD_BINS * np.arange(rows)[:, None]
+        size = rows * FOLD_BINS
+        counts = np.bincount(b.ravel(), minlength=size).reshape(rows, FOLD_BINS)
+        sums = np.bincount(b.ravel(), weights=detrended.ravel(), minlength=size)
+        sums = sums.reshape(rows, FOLD_BINS)
+        for w in range(rows):
+            if f_bp[w] > 0:
+                out[w]["fold_counts"], out[w]["fold_sums"] = counts[w], sums[w]
+    return out
+
+
+def analyse_windows(
+    windows,
+    sample_rate_hz: float,
+    omega_rad_s,
+    *,
+    n_harmonics: int = N_HARMONICS,
+    bearing: Bearing | None = None,
+    search_rel: float = SEARCH_REL,
+    passes_per_segment: int = PASSES_PER_SEGMENT,
+) -> list[TraceAnalysis]:
+    """:func:`analyse_trace` of each row of ``windows`` (rows of equal length, each at its own
+    ``omega_rad_s``), computed together: one transform over all rows for each spectrum, the
+    least-squares products of all rows at once. Equal to the analyses of the rows one by one
+    (the same code, which :func:`analyse_trace` runs on one row)."""
+    x = np.asarray(windows, dtype=float)
+    if x.ndim != 2 or x.shape[1] == 0:
+        raise ValueError("windows: a 2-D array of rows with at least one sample each")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("trace holds NaN or infinite values; repair it first")
+    fs = float(sample_rate_hz)
+    if not fs > 0.0 or not math.isfinite(fs):
+        raise ValueError(f"sample_rate_hz = {sample_rate_hz!r}: must be a finite rate > 0")
+    omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float), (x.shape[0],))
+    return _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
+
+
+def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment):
+    rows, n = x.shape
     duration = n / fs
     tc = (np.arange(n) - 0.5 * (n - 1)) / fs  # time from the middle of the trace
-    f_exp = expected_ball_pass_hz(omega_rad_s, bearing)
-    level0, slope0 = _linear_fit(r, tc)
-    f_bp, peak_ratio = _find_ball_pass(r - level0 - slope0 * tc, fs, f_exp, n_harmonics, search_rel)
-    ks = [k for k in range(1, n_harmonics + 1) if k * f_bp < 0.45 * fs]
-    if ks and n >= 8 * (2 + 4 * len(ks)):
-        f_bp = _refine_frequency(r, tc, f_bp, ks, span=0.5 / duration)
-        ks = [k for k in ks if k * f_bp < 0.45 * fs]
-    design = _harmonic_design(tc, f_bp, ks, derivative=False)
-    sol = _solve(design, r)
-    level, slope = float(sol[0]), float(sol[1])
-    coefficients = np.zeros(n_harmonics, dtype=complex)
-    for j, k in enumerate(ks):
-        coefficients[k - 1] = sol[2 + 2 * j] - 1j * sol[3 + 2 * j]
-    residual = r - _apply(design, sol)
-    detrended = r - level - slope * tc
-    psd_f, psd = _welch(detrended, fs, f_bp, passes_per_segment)
-    _, res_psd = _welch(residual, fs, f_bp, passes_per_segment)
-    noise_density = np.array(
-        [
-            band_mean(psd_f, res_psd, (k - 0.5) * f_bp, (k + 0.5) * f_bp)
-            for k in range(1, n_harmonics + 1)
-        ]
-    )
-    return TraceAnalysis(
-        sample_rate_hz=fs,
-        omega_rad_s=float(omega_rad_s),
-        n_samples=n,
-        duration_s=duration,
-        level_ohm=level,
-        drift_ohm_per_s=slope,
-        expected_hz=f_exp,
-        ball_pass_hz=f_bp,
-        search_peak_ratio=peak_ratio,
-        coefficients=coefficients,
-        noise_density=noise_density,
-        residual=residual,
-        detrended=detrended,
-        psd_freq_hz=psd_f,
-        psd=psd,
-        residual_psd=res_psd,
-        n_fitted=len(ks),
-    )
+    f_exp = np.array([expected_ball_pass_hz(float(o), bearing) for o in omega])
+    level0 = x.mean(axis=1)
+    slope0 = np.zeros(rows)
+    tcc = tc - tc.mean()
+    denom = float(np.sum(tcc * tcc))
+    if n >= 2 and denom > 0:
+        slope0 = np.sum(tcc * (x - level0[:, None]), axis=1) / denom
+    f_bp, peak_ratio = f_exp.copy(), np.ones(rows)
+    if n >= 4:
+        spec, df = _padded_power_rows(x - level0[:, None] - slope0[:, None] * tc, fs)
+        for w in range(rows):
+            if f_exp[w] > 0.0:
+                f_bp[w], peak_ratio[w] = _find_ball_pass(
+                    spec[w], df, duration, fs, f_exp[w], n_harmonics, search_rel
+                )
+    for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
+        if ks and n >= 8 * (2 + 4 * len(ks)):
+            f_bp[idx] = _refine_frequency(x[idx], tc, f_bp[idx], list(ks), 0.5 / duration)
+    level, slope = np.zeros(rows), np.zeros(rows)
+    coefficients = np.zeros((rows, n_harmonics), dtype=complex)
+    residual = np.empty_like(x)
+    n_fitted = np.zeros(rows, dtype=int)
+    for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
+        design = _harmonic_design(tc, f_bp[idx], list(ks), derivative=False)
+        sol = _solve(design, x[idx])[0]
+        level[idx], slope[idx] = sol[:, 0], sol[:, 1]
+        for j, k in enumerate(ks):
+            coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]
+        residual[idx] = x[idx] - _apply(design, sol)
+        n_fitted[idx] = len(ks)
+    detrended = x - level[:, None] - slope[:, None] * tc
+    spectra = _welch_rows(detrended, fs, f_bp, passes_per_segment)
+    residual_spectra = _welch_rows(residual, fs, f_bp, passes_per_segment)
+    stats = _row_statistics(detrended, residual, fs, f_bp)
+    out = []
+    for w in range(rows):
+        psd_f, psd = spectra[w]
+        res_psd = residual_spectra[w][1]
+        noise_density = np.array(
+            [
+                band_mean(psd_f, res_psd, (k - 0.5) * f_bp[w], (k + 0.5) * f_bp[w])
+                for k in range(1, n_harmonics + 1)
+            ]
+        )
+        out.append(
+            TraceAnalysis(
+                sample_rate_hz=fs,
+                omega_rad_s=float(omega[w]),
+                n_samples=n,
+                duration_s=duration,
+                level_ohm=float(level[w]),
+                drift_ohm_per_s=float(slope[w]),
+                expected_hz=float(f_exp[w]),
+                ball_pass_hz=float(f_bp[w]),
+                search_peak_ratio=float(peak_ratio[w]),
+                coefficients=coefficients[w],
+                noise_density=noise_density,
+                residual=residual[w],
+                detrended=detrended[w],
+                psd_freq_hz=psd_f,
+                psd=psd,
+                residual_psd=res_psd,
+                n_fitted=int(n_fitted[w]),
+                statistics=stats[w],
+            )
+        )
+    return out
 
 
 def debiased_amplitudes(a: TraceAnalysis) -> np.ndarray:

@@ -20,15 +20,18 @@ the second's whitening and long-run variance are read from. Each change found is
 again by the same statistic between its neighbours.
 
 **Stretches** (:func:`combine_stretch`): the windows between two changes. A regression target
-(F_r on a log scale, epsilon, clearance) is the mean of the window estimates; its interval adds
-two parts: the scatter of the window estimates over the stretch, divided by the effective
-number of independent windows n_eff = n / (1 + 2 sum_k (1 - k / (K + 1)) rho_k) (Bartlett,
-rho_k their autocorrelation at lag k, K = n^(1/3)), which shrinks as the stretch grows, and the
-model's own error for that state, which does not (the windows of one state share it): the
-windows' interval variance less their scatter (less its one-sigma lower bound: a scatter
-overestimated by chance would otherwise shrink the interval; simulated coverage 90-98 % of a
-nominal 90 % for 5-200 windows, tests/test_monitor.py). A class output combines the windows'
-log-probabilities, each weighted n_eff / n (the same correction for correlation).
+(F_r on a log scale, epsilon, clearance) is the mean of the window estimates, a model of the
+window means whose error has two parts. The windows' scatter about their mean (noise), divided
+by the effective number of independent windows n_eff = n / (1 + 2 sum_k (1 - k / (K + 1))
+rho_k) (Bartlett, rho_k their autocorrelation at lag k, K = n^(1/3)): the independence
+assumption is checked on the windows themselves, and this part shrinks as the stretch grows.
+And the model's own error for that state, which does not shrink (the windows of one state share
+it): ``bias_ratio`` times the root-mean-square standard deviation of the windows' intervals
+(their width / 2 z90), a ratio per target calibrated by split conformal prediction (Vovk,
+Gammerman, Shafer 2005, ch. 2; Lei et al. 2018, JASA 113, 1094) on held-out runs that are not
+the acceptance records (:data:`BIAS_RATIO`; ``signatelec study monitor`` measures it). The two
+parts add in quadrature: half-width z90 (b^2 + s^2 / n_eff)^(1/2). A class output combines the
+windows' log-probabilities, each weighted n_eff / n (the same correction for correlation).
 
 **Alarms** (:func:`alarms`): at each change, a load change beyond ``load_threshold`` (with the
 probability that the stretches' F_r differ by more, from their scatter parts), a change of
@@ -45,9 +48,11 @@ from scipy import stats
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)
-#: Quantile of chi^2 / (n - 1) the windows' scatter variance is divided by before it is taken
-#: out of their interval variance (0.84: one sigma; :func:`combine_target`).
-SCATTER_QUANTILE = 0.84
+#: The model's error of a state (shared by its windows) in units of the windows' interval
+#: standard deviation, per target: split-conformal 90 % quantile over the stretches of the
+#: calibration records of ``signatelec study monitor`` (docs/monitor: held-out paper-fidelity
+#: DEM states drawn apart from the acceptance records', default model, 0.2 s windows).
+BIAS_RATIO = {"radial_load_n": 0.714, "epsilon": 0.516, "clearance_m": 0.590}
 #: Fewest windows on either side of a change.
 MIN_SEGMENT = 3
 #: Class outputs of the model, each with ``<name>_probability_<class>`` columns.
@@ -197,30 +202,26 @@ def change_points(
     return [(int(rows[k]), 1.0 - p) for k, p in second]
 
 
-def combine_target(values, low, high, log: bool) -> dict:
-    """Mean of the window estimates with its interval (module docstring)."""
+def combine_target(values, low, high, log: bool, bias_ratio: float) -> dict:
+    """Mean of the window estimates with its interval (module docstring): ``value``, ``low``,
+    ``high``, ``se_noise`` (the noise part's standard error), ``n_eff`` and ``window_sd`` (the
+    windows' interval standard deviation, which ``bias_ratio`` multiplies), the last two on
+    the combining scale (log for ``log``)."""
     y = np.asarray(values, float)
     lo, hi = np.asarray(low, float), np.asarray(high, float)
     if log:
         y, lo, hi = np.log(y), np.log(lo), np.log(hi)
     n = y.size
-    frac = effective_fraction(y)
-    n_eff = max(1.0, frac * n)
+    n_eff = max(1.0, effective_fraction(y) * n)
     scatter2 = float(np.var(y, ddof=1)) if n > 1 else 0.0
-    total2 = float(np.mean(((hi - lo) / (2.0 * Z90)) ** 2))
-    # the model's part is what the scatter leaves of the windows' interval variance; the
-    # scatter's one-sigma lower bound (chi^2 with n - 1 degrees of freedom) is taken out, not
-    # its estimate, so that a scatter overestimated by chance does not shrink the interval
-    low2 = scatter2 * (n - 1) / stats.chi2.ppf(SCATTER_QUANTILE, n - 1) if n > 1 else 0.0
-    model2 = max(total2 - low2, 0.0)
+    window_sd = math.sqrt(float(np.mean(((hi - lo) / (2.0 * Z90)) ** 2)))
     centre = float(y.mean())
     se_noise = math.sqrt(scatter2 / n_eff)
-    half = Z90 * math.sqrt(model2 + scatter2 / n_eff)
-    out = {"value": centre, "low": centre - half, "high": centre + half, "se_noise": se_noise}
+    half = Z90 * math.hypot(bias_ratio * window_sd, se_noise)
+    out = {"value": centre, "low": centre - half, "high": centre + half}
     if log:
-        out = {k: (math.exp(v) if k != "se_noise" else v) for k, v in out.items()}
-    out["n_eff"] = n_eff
-    return out
+        out = {k: math.exp(v) for k, v in out.items()}
+    return {**out, "se_noise": se_noise, "n_eff": n_eff, "window_sd": window_sd}
 
 
 def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None:
@@ -239,20 +240,26 @@ def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None
     return {c.removeprefix(f"{name}_probability_"): float(q) for c, q in zip(pc, p, strict=True)}
 
 
-def combine_stretch(windows: pd.DataFrame) -> dict:
-    """One stretch's estimate from its usable windows."""
+def combine_stretch(windows: pd.DataFrame, bias_ratio: dict | None = None) -> dict:
+    """One stretch's estimate from its usable windows (``bias_ratio``: per target, default
+    :data:`BIAS_RATIO`)."""
+    ratios = BIAS_RATIO if bias_ratio is None else bias_ratio
     out: dict = {"n_windows": int(len(windows))}
     for target, scale in TARGET_SCALES.items():
         if target not in windows:
             continue
         c = combine_target(
-            windows[target], windows[f"{target}_low"], windows[f"{target}_high"], scale == "log"
+            windows[target],
+            windows[f"{target}_low"],
+            windows[f"{target}_high"],
+            scale == "log",
+            ratios[target],
         )
         out[target] = c["value"]
         out[f"{target}_low"] = c["low"]
         out[f"{target}_high"] = c["high"]
-        out[f"{target}_se_noise"] = c["se_noise"]
-        out[f"{target}_n_eff"] = c["n_eff"]
+        for part in ("se_noise", "n_eff", "window_sd"):
+            out[f"{target}_{part}"] = c[part]
     for name in CLASS_OUTPUTS:
         probs = combine_classes(windows, name)
         if probs:
@@ -316,11 +323,12 @@ def stretches_and_changes(
     hop_s: float,
     false_alarm_per_hour: float = FALSE_ALARM_PER_HOUR,
     load_threshold: float = LOAD_THRESHOLD,
+    bias_ratio: dict | None = None,
 ) -> tuple[list[dict], list[dict], list[dict]]:
     """(stretches, changes, alarms) of a window table (module docstring). A change point
     whose two sides differ neither in F_r by ``load_threshold`` nor in a class output (a
     drift, a state whose windows scatter more than the others') is merged away, the least
-    material first."""
+    material first. ``bias_ratio``: as :func:`combine_stretch`'s."""
     good = usable(windows)
     if good.empty:
         return [], [], []
@@ -347,7 +355,7 @@ def stretches_and_changes(
         if inside.sum() >= 1:
             part = part[inside]
         s = {"start_s": bounds[i], "end_s": bounds[i + 1]}
-        s.update(combine_stretch(part))
+        s.update(combine_stretch(part, bias_ratio))
         stretches.append(s)
     changes, alarm_list = [], []
     for k, t, before, after in zip(edges[1:-1], times, stretches[:-1], stretches[1:], strict=True):

@@ -61,6 +61,7 @@ from signatelec.estimation.analysis import (
     analysis_of,
     band_power,
     debiased_amplitudes,
+    shape_stats,
 )
 from signatelec.measurement.traces import N_HARMONICS
 
@@ -68,8 +69,6 @@ from signatelec.measurement.traces import N_HARMONICS
 FEATURE_SET_VERSION = 1
 #: Points of the synthesised ripple waveform over one ball pass.
 WAVEFORM_POINTS = 64
-#: Phase bins of the folded raw trace.
-FOLD_BINS = 16
 #: Features that measure how well the trace determines the others and so grow with its length.
 LENGTH_DEPENDENT = ("harmonic_snr", "duration_ball_passes", "ball_pass_peak_ratio")
 
@@ -121,12 +120,11 @@ def level_features(a: TraceAnalysis) -> dict[str, float]:
     deviation (1.4826 MAD) and of the interquartile range (IQR / 1.349) of the detrended trace,
     in ohm and relative to the mean; the linear drift relative to the level, per second.
     """
-    r = a.detrended
+    st = a.statistics
     mean = a.level_ohm
-    med = float(np.median(r)) + mean
-    mad = _MAD_TO_SIGMA * float(np.median(np.abs(r - np.median(r))))
-    q75, q25 = np.percentile(r, [75.0, 25.0])
-    iqr = _IQR_TO_SIGMA * float(q75 - q25)
+    med = st["median"] + mean
+    mad = _MAD_TO_SIGMA * st["mad"]
+    iqr = _IQR_TO_SIGMA * (st["q75"] - st["q25"])
     s = a.level_scale
     return {
         "level_mean_ohm": mean,
@@ -274,17 +272,17 @@ def noise_features(a: TraceAnalysis) -> dict[str, float]:
     harmonics (what sets the harmonics' uncertainty); ``noise_sub_fraction``: share of the
     residual power below f_bp / 2; ``noise_kurtosis``: excess kurtosis (impacts, quantisation).
     """
-    e = a.residual
+    st = a.statistics
     s = a.level_scale
-    rms = float(e.std())
-    mad = _MAD_TO_SIGMA * float(np.median(np.abs(e - np.median(e))))
-    white = float(np.diff(e).std() / math.sqrt(2.0)) if e.size > 2 else rms
+    rms = st["residual_std"]
+    mad = _MAD_TO_SIGMA * st["residual_mad"]
+    white = st["residual_white"]
     f, p, fb = a.psd_freq_hz, a.residual_psd, a.ball_pass_hz
     total = band_power(f, p, 0.0, f[-1] + 1.0) if f.size > 1 else 0.0
     sub = band_power(f, p, 0.0, 0.5 * fb) if f.size > 1 else 0.0
     dens = float(a.noise_density.mean())
-    var = float(np.mean(e**2))
-    kurt = float(np.mean(e**4) / var**2 - 3.0) if var > 0 else 0.0
+    var = st["residual_var"]
+    kurt = st["residual_m4"] / var**2 - 3.0 if var > 0 else 0.0
     return {
         "noise_rms_rel": rms / s,
         "noise_mad_rel": mad / s,
@@ -311,21 +309,6 @@ def ripple_feature_names(n_harmonics: int = N_HARMONICS) -> list[str]:
     ]
 
 
-def _shape_stats(w: np.ndarray) -> tuple[float, float, float, float]:
-    """(crest, skewness, excess kurtosis, asymmetry) of a zero-mean waveform."""
-    w2 = w * w
-    var = float(w2.mean())
-    if var <= 0.0:
-        return 1.0, 0.0, 0.0, 0.0
-    sd = math.sqrt(var)
-    wmax, wmin = float(w.max()), float(w.min())
-    crest = max(wmax, -wmin) / sd
-    skew = float((w2 * w).mean() / sd**3)
-    kurt = float((w2 * w2).mean() / var**2 - 3.0)
-    asym = (wmax + wmin) / (wmax - wmin) if wmax > wmin else 0.0
-    return crest, skew, kurt, asym
-
-
 @_group(ripple_feature_names)
 def ripple_features(a: TraceAnalysis) -> dict[str, float]:
     """Shape of the ripple over one ball pass.
@@ -333,8 +316,9 @@ def ripple_features(a: TraceAnalysis) -> dict[str, float]:
     The waveform synthesised from the debiased harmonics (``WAVEFORM_POINTS`` points over one
     pass): rms and peak-to-peak relative to the level, crest factor, skewness, excess kurtosis
     and asymmetry (max + min) / (max - min) (> 0: peaks, < 0: dips). The raw trace folded at
-    the found f_bp into ``FOLD_BINS`` phase bins: peak-to-peak of the bin means over the level
-    and their skewness. The detrended raw samples: skewness and excess kurtosis (noise-led).
+    the found f_bp into :data:`~signatelec.estimation.analysis.FOLD_BINS` phase bins:
+    peak-to-peak of the bin means over the level and their skewness. The detrended raw
+    samples: skewness and excess kurtosis (noise-led).
     """
     n_harmonics = a.n_harmonics
     s = a.level_scale
@@ -345,21 +329,18 @@ def ripple_features(a: TraceAnalysis) -> dict[str, float]:
     phi = 2.0 * math.pi * np.arange(WAVEFORM_POINTS) / WAVEFORM_POINTS
     k = np.arange(1, n_harmonics + 1)
     w = np.real(np.exp(1j * np.outer(phi, k)) @ c)
-    crest, skew, kurt, asym = _shape_stats(w)
+    crest, skew, kurt, asym = (float(v) for v in shape_stats(w))
     # folded raw trace
-    x = a.detrended
+    st = a.statistics
     fold_p2p, fold_skew = 0.0, 0.0
-    if a.ball_pass_hz > 0 and x.size >= FOLD_BINS:
-        t = np.arange(x.size) / a.sample_rate_hz
-        b = np.floor((t * a.ball_pass_hz % 1.0) * FOLD_BINS).astype(int) % FOLD_BINS
-        counts = np.bincount(b, minlength=FOLD_BINS)
-        sums = np.bincount(b, weights=x, minlength=FOLD_BINS)
+    if "fold_counts" in st:
+        counts, sums = st["fold_counts"], st["fold_sums"]
         ok = counts > 0
         means = sums[ok] / counts[ok]
         means = means - means.mean()
         fold_p2p = float(np.ptp(means) / s) if means.size else 0.0
-        _, fold_skew, _, _ = _shape_stats(means)
-    _, raw_skew, raw_kurt, _ = _shape_stats(x - x.mean())
+        fold_skew = float(shape_stats(means)[1])
+    raw_skew, raw_kurt = st["raw_skew"], st["raw_kurtosis"]
     return {
         "ripple_rms_rel": float(math.sqrt(0.5 * float((amp**2).sum())) / s),
         "ripple_p2p_rel": float(np.ptp(w) / s),

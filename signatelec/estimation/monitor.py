@@ -4,10 +4,13 @@
 read_chunks`: memory bounded whatever the file's length, or a CSV file followed as it grows),
 cuts it into windows of ``window_s`` every ``hop_s`` and estimates each as ``signatelec
 estimate`` does (:mod:`signatelec.estimation.estimate`: the same features, in-domain score and
-model), the model asked once per block of windows. The trace's reading and sanity checks are
-those of ``estimate``, applied per block of :data:`BLOCK_S`: each block is repaired or refused
-by :func:`~signatelec.measurement.traces.prepare_trace` and its first :data:`SCREEN_S` screened
-for the level and the ball-pass line (:func:`~signatelec.measurement.sanity.check_level`,
+model): the windows of a block analysed together
+(:func:`~signatelec.estimation.analysis.analyse_windows`, equal to the one-window analysis),
+the model asked once per batch of windows. The trace's reading and sanity checks are those of
+``estimate``, applied per block of :data:`BLOCK_S`: each block is repaired or refused by
+:func:`~signatelec.measurement.traces.prepare_trace`; the first block's first
+:data:`SCREEN_S`, then one block's every :data:`SCREEN_EVERY_S`, is screened for the level and
+the ball-pass line (:func:`~signatelec.measurement.sanity.check_level`,
 :func:`~signatelec.measurement.ripple.find_ripple`). A first block that is refused refuses the
 trace (one line: wrong column, unit, speed, ...); a later one is kept as windows with a
 ``status`` saying why they carry no estimate. The set-up-transient trim of ``estimate`` is not
@@ -32,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from signatelec.estimation.analysis import analyse_windows
 from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import trace_features
@@ -48,11 +52,16 @@ WINDOW_S = 0.2
 #: Trace per block of windows: repaired and screened together.
 BLOCK_S = 2.0
 #: Windows whose features the model is asked about in one batch (one thread: scikit-learn's
-#: threaded prediction of a few hundred rows is ~10x slower on busy cores, and 100 rows take
-#: ~0.25 ms each against ~1 ms one block of 10 at a time).
-BATCH_WINDOWS = 100
+#: threaded prediction is ~10x slower on busy cores). Per window, ~0.09 ms in batches of 1000,
+#: 0.14 ms of 300, 0.24 ms of 100; a followed file is answered every 100 windows.
+BATCH_WINDOWS = 1000
+FOLLOW_BATCH_WINDOWS = 100
 #: Length of each block's ripple and level screening (the ripple search costs ~T^2).
 SCREEN_S = 0.5
+#: Trace between two screenings of the ripple (the first block is always screened): a speed
+#: gone wrong is refused within this; screening every block cost ~1.4 ms per 0.2 s window at
+#: 50 kHz, more than the window's features.
+SCREEN_EVERY_S = 10.0
 #: Features kept per window beside the estimate (the change detector reads some).
 KEPT_FEATURES = (
     "level_mean_ohm",
@@ -148,8 +157,7 @@ def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) 
         scores = np.array([d.score_of_distance(float(v)) for v in d2])
     coverage = model.info.get("coverage", DEFAULT_COVERAGE)
     probs = [c for c in pred.columns if c.startswith("regime_probability_")]
-    for i, row in enumerate(rows):
-        out = pred.iloc[i].to_dict()
+    for i, (row, out) in enumerate(zip(rows, pred.to_dict("records"), strict=True)):
         out["in_domain_score"] = float(scores[i])
         out["interval_coverage"] = coverage
         if probs:
@@ -174,8 +182,9 @@ class _Windows:
         self.fs = None
         self.tracked = settings.omega_rad_s
         self.first = True
-        self.pending: list[dict] = []  # windows waiting for the model: (row, features)
-        self.pending_feats: list[dict] = []
+        self.ripple = "unchecked"  # the last screening's ripple status
+        self.next_screen_s = -math.inf
+        self.pending: list[dict] = []  # windows waiting for the model
 
     def add(self, chunk) -> None:
         self.t = np.concatenate([self.t, chunk.time_s])
@@ -206,11 +215,11 @@ class _Windows:
     def flush(self) -> None:
         """Ask the model about the pending windows and file them in the table."""
         clock = time.process_time()
-        ok = [row for row in self.pending if "omega_rad_s" in row]
-        _estimate_batch(ok, self.pending_feats, self.model)
+        ok = [row for row in self.pending if "_features" in row]
+        _estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
         if self.pending:
             self.table.parts.append(pd.DataFrame(self.pending))
-        self.pending, self.pending_feats = [], []
+        self.pending = []
         self.table.cpu_s += time.process_time() - clock
 
     def _block(self, final: bool) -> bool:
@@ -239,6 +248,35 @@ class _Windows:
             self.v = self.v[keep:]
         return True
 
+    def _measure(self, windows, fs: float) -> None:
+        """Features of windows [(row, segment, omega)] of one length, analysed together
+        (:func:`~signatelec.estimation.analysis.analyse_windows`), written into the rows (all
+        of them under ``_features``, for the model)."""
+        if not windows:
+            return
+        try:
+            analyses = analyse_windows(
+                np.stack([seg for _, seg, _ in windows]), fs, [om for _, _, om in windows]
+            )
+        except ValueError as exc:
+            for row, _, _ in windows:
+                row["status"] = f"refused: {exc}"
+            return
+        for (row, seg, omega), a in zip(windows, analyses, strict=True):
+            f = trace_features(None, analysis=a)
+            row.update(
+                omega_rad_s=omega,
+                resistance_min_ohm=float(seg.min()),
+                resistance_max_ohm=float(seg.max()),
+                **{name: f[name] for name in KEPT_FEATURES},
+            )
+            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
+                # the found line predicts the next window's speed (kinematics are linear in it)
+                self.tracked = f["ball_pass_found_hz"] / (
+                    expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)
+                )
+            row["_features"] = f
+
     def _estimate(self, lo, hi, start, n_per) -> None:
         clock = time.process_time()
         speed = None if self.v is None else self.v[lo:hi]
@@ -246,7 +284,7 @@ class _Windows:
         where = f"{self.source} at t = {start:.6g} s"
         hop_n = int(round(self.s.hop * self.fs))
         win_n = int(round(self.s.window_s * self.fs))
-        rows, feats, status, ripple = [], [], "ok", "unchecked"
+        rows, status, ripple = [], "ok", "unchecked"
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
@@ -256,14 +294,18 @@ class _Windows:
                 omega_block,
                 source=where if not self.first else self.source,
             )
-            ripple, note = _screen(trace, omega_block, self.model, self.first)
-            if note:
-                self.table.notes.append(note)
+            if self.first or start >= self.next_screen_s:
+                ripple, note = _screen(trace, omega_block, self.model, self.first)
+                self.ripple, self.next_screen_s = ripple, start + SCREEN_EVERY_S
+                if note:
+                    self.table.notes.append(note)
+            ripple = self.ripple
         except TraceError as exc:
             if self.first:
                 raise
             status, trace = f"refused: {exc}", None
         self.first = False
+        todo = []  # (row, segment, omega) of the windows to measure
         for k in range(n_per):
             t_start = start + k * self.s.hop
             row = {
@@ -286,29 +328,20 @@ class _Windows:
                 if not (math.isfinite(omega) and omega > 0):
                     row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
                     continue
-            elif self.s.track_speed:
-                omega = self.tracked
-            try:
-                f = trace_features(seg, trace.sample_rate_hz, omega)
-            except ValueError as exc:
-                row["status"] = f"refused: {exc}"
-                continue
-            row.update(
-                omega_rad_s=omega,
-                resistance_min_ohm=float(seg.min()),
-                resistance_max_ohm=float(seg.max()),
-                **{name: f[name] for name in KEPT_FEATURES},
-            )
-            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
-                # the found line predicts the next window's speed (kinematics are linear in it)
-                self.tracked = f["ball_pass_found_hz"] / (
-                    expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)
-                )
-            feats.append(f)
+            if self.s.track_speed and speed is None:
+                # the speed comes from the previous window's line: one window at a time
+                self._measure([(row, seg, self.tracked)], trace.sample_rate_hz)
+            else:
+                todo.append((row, seg, omega))
+        # windows of full length in one batch, any others (cut by a repair) one by one
+        full = [w for w in todo if w[1].size == win_n]
+        self._measure(full, trace.sample_rate_hz if trace else 0.0)
+        for w in todo:
+            if w[1].size != win_n:
+                self._measure([w], trace.sample_rate_hz)
         self.pending.extend(rows)
-        self.pending_feats.extend(feats)
         self.table.cpu_s += time.process_time() - clock
-        if len(self.pending) >= BATCH_WINDOWS:
+        if len(self.pending) >= (FOLLOW_BATCH_WINDOWS if self.s.follow else BATCH_WINDOWS):
             self.flush()
 
 

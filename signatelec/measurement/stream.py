@@ -66,9 +66,22 @@ def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
     check_columns(pf.schema_arrow.names, names, where)
     row = 0
     for batch in pf.iter_batches(batch_size=chunk_rows, columns=names, use_threads=False):
-        df = batch.to_pandas()
-        yield _chunk(df, names, where, row)
-        row += len(df)
+        yield _arrow_chunk(batch, names, where, row)
+        row += batch.num_rows
+
+
+def _arrow_chunk(batch, names, where, first_row) -> Chunk:
+    """A chunk of a record batch: numeric columns cast to floats in Arrow (missing -> NaN),
+    without the detour through pandas that costs ~0.1 us a row; any other column through
+    :func:`~signatelec.measurement.traces.numeric_column` (its one-line refusal of text)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    columns = [batch.column(batch.schema.get_field_index(c)) for c in names]
+    if not all(pa.types.is_floating(c.type) or pa.types.is_integer(c.type) for c in columns):
+        return _chunk(batch.to_pandas(), names, where, first_row)
+    values = [pc.cast(c, pa.float64(), safe=False).to_numpy(zero_copy_only=False) for c in columns]
+    return Chunk(values[0], values[1], values[2] if len(values) > 2 else None, first_row)
 
 
 def _separator(head: bytes) -> str:

@@ -10,10 +10,15 @@
    records of :data:`N_STRETCHES` stretches of 2-10 s and a final constant stretch of
    :data:`CONSTANT_S` (the false-alarm check), each stretch a state's steady segment tiled,
    with independent white noise;
-3. **monitor** each record (:func:`signatelec.estimation.monitor.monitor_trace`) and compare
-   change times, per-stretch F_r, regime and interval coverage with the truth, then the
-   throughput and peak memory of ``signatelec monitor`` on synthetic 50 kHz records of 1, 10
-   and 60 minutes (:mod:`signatelec.studies.monitor_metrics`).
+3. **calibrate** the stretch intervals' model-error term
+   (:data:`~signatelec.estimation.evidence.BIAS_RATIO`) on records assembled alike from a
+   second bank of :data:`~signatelec.studies.monitor_records.CALIBRATION_STATES` states drawn
+   from another seed (:func:`~signatelec.studies.monitor_metrics.calibrate_bias_ratio`: split
+   conformal over their stretches);
+4. **monitor** each acceptance record (:func:`signatelec.estimation.monitor.monitor_trace`),
+   with the calibrated ratios, and compare change times, per-stretch F_r, regime and interval
+   coverage with the truth, then the throughput and peak memory of ``signatelec monitor`` on
+   synthetic 50 kHz records of 1, 10 and 60 minutes (:mod:`signatelec.studies.monitor_metrics`).
 """
 
 from __future__ import annotations
@@ -28,6 +33,8 @@ import pandas as pd
 from signatelec.io import write_bytes_atomic
 from signatelec.studies.monitor_records import (
     BANK_SEED,
+    CALIBRATION_SEED,
+    CALIBRATION_STATES,
     OMEGA_RAD_S,
     SAMPLE_RATE_HZ,
     assemble_record,
@@ -39,6 +46,8 @@ from signatelec.studies.monitor_records import (
 N_RECORDS = 20
 N_STRETCHES = 6
 CONSTANT_S = 60.0
+#: Records assembled from the calibration bank (no final constant stretch).
+N_CALIBRATION_RECORDS = 40
 
 
 def run_records(
@@ -46,15 +55,18 @@ def run_records(
     model,
     directory: Path,
     n_records: int = N_RECORDS,
-    constant_s: float = CONSTANT_S,
+    constant_s: float | None = CONSTANT_S,
     log: Callable[[str], None] | None = None,
+    seed: int = BANK_SEED + 1,
+    bias_ratio: dict | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
-    """Monitor ``n_records`` assembled records: (truth, found stretches, change statistics)."""
+    """Monitor ``n_records`` assembled records (drawn with ``seed``; stretch intervals with
+    ``bias_ratio``): (truth, found stretches, change statistics)."""
     from signatelec.estimation.evidence import stretches_and_changes
     from signatelec.estimation.monitor import MonitorSettings, monitor_trace
     from signatelec.studies.monitor_metrics import match_record
 
-    rng = np.random.default_rng(BANK_SEED + 1)
+    rng = np.random.default_rng(seed)
     settings = MonitorSettings(omega_rad_s=OMEGA_RAD_S)
     rows, change_rows = [], []
     cpu = seconds = 0.0
@@ -66,7 +78,9 @@ def run_records(
         table = monitor_trace(path, model, settings)
         path.unlink()
         windows = table.frame()
-        stretches, changes, alarms = stretches_and_changes(windows, settings.hop)
+        stretches, changes, alarms = stretches_and_changes(
+            windows, settings.hop, bias_ratio=bias_ratio
+        )
         cpu += table.cpu_s
         seconds += noisy.size / SAMPLE_RATE_HZ
         truth_m, chg = match_record(truth, stretches, changes, windows, settings.window_s)
@@ -92,10 +106,15 @@ def run_study(
     log: Callable[[str], None] | None = None,
 ) -> dict[str, Path]:
     """The study (module docstring) into ``out``: monitor.md, monitor_stretches.parquet,
-    monitor_changes.parquet, monitor_example.png."""
+    monitor_calibration.parquet, monitor_changes.parquet, monitor_throughput.parquet,
+    monitor_example.png."""
     from signatelec.estimation.monitor_report import draw, summary_of
     from signatelec.estimation.persistence import default_model
-    from signatelec.studies.monitor_metrics import acceptance_report, throughput_table
+    from signatelec.studies.monitor_metrics import (
+        acceptance_report,
+        calibrate_bias_ratio,
+        throughput_table,
+    )
 
     start = time.time()
     out = Path(out)
@@ -104,8 +123,19 @@ def run_study(
     model = default_model(log=log)
     work = Path(bank_dir) / "records"
     work.mkdir(exist_ok=True)
+    calibration = dem_bank(
+        Path(bank_dir) / "calibration", log, 6 if quick else CALIBRATION_STATES, CALIBRATION_SEED
+    )
+    n_cal = 2 if quick else N_CALIBRATION_RECORDS
+    cal_truth, _, _ = run_records(calibration, model, work, n_cal, None, log, CALIBRATION_SEED + 1)
+    ratios = calibrate_bias_ratio(cal_truth)
+    if log:
+        log(f"calibrated bias ratios: {ratios}")
     n = 2 if quick else N_RECORDS
-    truth, changes, info = run_records(bank, model, work, n, 10.0 if quick else CONSTANT_S, log)
+    const = 10.0 if quick else CONSTANT_S
+    truth, changes, info = run_records(bank, model, work, n, const, log, bias_ratio=ratios)
+    info["bias_ratio"] = ratios
+    info["calibration"] = {"states": len(calibration), "stretches": len(cal_truth)}
     windows, table, settings, stretches, chg, alarms = info.pop("example")
     summary = summary_of(table, settings, stretches, chg, alarms, {})
     paths = {"figure": out / "monitor_example.png"}
@@ -115,7 +145,13 @@ def run_study(
     paths["report"] = out / "monitor.md"
     info["throughput"] = throughput.to_dict("records")
     write_bytes_atomic(paths["report"], text.encode())
-    for name, frame in (("stretches", truth), ("changes", changes), ("throughput", throughput)):
+    frames = (
+        ("stretches", truth),
+        ("calibration", cal_truth),
+        ("changes", changes),
+        ("throughput", throughput),
+    )
+    for name, frame in frames:
         paths[name] = out / f"monitor_{name}.parquet"
         buffer = frame.to_parquet()
         write_bytes_atomic(paths[name], buffer)

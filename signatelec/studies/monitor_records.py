@@ -29,6 +29,10 @@ SAMPLE_RATE_HZ = 20000.0
 #: White noise per sample, relative to the level (the acceptance condition's).
 NOISE = 0.002
 BANK_SEED = 20261122
+#: The calibration bank (the stretch intervals' model-error term, not the acceptance records):
+#: states drawn alike from another seed.
+CALIBRATION_STATES = 72
+CALIBRATION_SEED = 20261999
 
 
 def bank_states(n: int = BANK_STATES, seed: int = BANK_SEED) -> pd.DataFrame:
@@ -71,12 +75,18 @@ def _run_state(row: dict) -> pd.DataFrame:
     return steady[["time_s", "resistance_ohm", "epsilon"]].reset_index(drop=True)
 
 
-def dem_bank(directory: str | Path, log: Callable[[str], None] | None = None) -> pd.DataFrame:
-    """The bank's states with their steady traces (``resistance`` as a list column), each run
-    cached in ``directory`` as ``state-<i>.parquet``."""
+def dem_bank(
+    directory: str | Path,
+    log: Callable[[str], None] | None = None,
+    n: int = BANK_STATES,
+    seed: int = BANK_SEED,
+) -> pd.DataFrame:
+    """The bank's states (:func:`bank_states` of ``n`` and ``seed``) with their steady traces
+    (``resistance`` as a list column), each run cached in ``directory`` as
+    ``state-<i>.parquet``."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    states = bank_states()
+    states = bank_states(n, seed)
     traces, eps = [], []
     for row in states.to_dict("records"):
         path = directory / f"state-{row['state']:03d}.parquet"
