@@ -329,6 +329,17 @@ def catalogue_entry(designation: str) -> CatalogueEntry:
     return CATALOGUE[key]
 
 
+#: The real bearing the seed's 2D model stands for (seed section 2.2.2: an SKF 6208).
+SEED_REAL_BEARING = "6208"
+
+
+def rated_entry(designation: str) -> CatalogueEntry:
+    """The entry whose series, bore and speeds a designation runs at: its own, or for the
+    seed's 2D model (which gives no speeds) the 6208's."""
+    key = str(designation).strip().lower()
+    return catalogue_entry(SEED_REAL_BEARING if key == "seed" else key)
+
+
 def _derived_fields(entry: CatalogueEntry, n_balls: int, ball_radius_m: float, r_in_m: float):
     """The fields that follow from the ball set and the inner raceway radius."""
     diameter_m = 2.0 * ball_radius_m
@@ -414,7 +425,7 @@ def minimum_load_n(designation: str, viscosity_mm2_s: float, omega_rad_s: float)
     set's inertia and the lubricant's drag need more traction than the load gives (the seed's
     bearing: a 6208's, whose 2D model it is).
     """
-    entry = catalogue_entry("6208" if str(designation).strip().lower() == "seed" else designation)
+    entry = rated_entry(designation)
     factor = MINIMUM_LOAD_FACTOR.get(entry.designation[:2])
     if factor is None:
         raise CatalogueError(f"bearing {designation!r}: no minimum load factor for its series")

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from signatelec.config.catalogue import catalogue_entry
+from signatelec.config.catalogue import rated_entry
 from signatelec.config.scene import Scene
 from signatelec.engines.simulate import simulate
 from signatelec.io import write_bytes_atomic
@@ -42,12 +42,11 @@ TEMPERATURES_C = (40.0, 70.0, 100.0)
 SAMPLES_PER_PASS = 48
 #: The dry model holds where the lubricated DC resistance is within this of the dry one.
 DRY_RTOL = 0.10
-SEED_AS = "6208"
 RPM = 2.0 * math.pi / 60.0
 
 
 def speeds_rad_s(n: int = N_SPEEDS) -> np.ndarray:
-    return np.geomspace(LOWEST_RPM, catalogue_entry(SEED_AS).limiting_speed_rpm, n) * RPM
+    return np.geomspace(LOWEST_RPM, rated_entry("seed").limiting_speed_rpm, n) * RPM
 
 
 def cell_scene(omega_rad_s: float, load_fraction: float, temperature_c: float) -> Scene:

@@ -54,9 +54,9 @@ from signatelec._version import __version__
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.catalogue import (
     catalogue_bearing,
-    catalogue_entry,
     list_bearings,
     minimum_load_n,
+    rated_entry,
 )
 from signatelec.config.scene import Scene, SceneError, preload_limit_m
 from signatelec.io import write_bytes_atomic
@@ -92,13 +92,11 @@ ISO_5753_GROUP_N_UM = {
     (30.0, 40.0): (6.0, 20.0),
     (40.0, 50.0): (6.0, 23.0),
 }
-#: The seed's bearing is the 6208's 2D model: its bore and speeds are the 6208's.
-SEED_AS = "6208"
 
 
 def normal_clearance_m(designation: str) -> float:
     """Middle of the ISO 5753-1 group N clearance for the bearing's bore, m."""
-    entry = catalogue_entry(SEED_AS if designation == "seed" else designation)
+    entry = rated_entry(designation)
     bore_mm = entry.bore_diameter_m * 1e3
     for (low, high), (cmin, cmax) in ISO_5753_GROUP_N_UM.items():
         if low < bore_mm <= high:
@@ -107,7 +105,7 @@ def normal_clearance_m(designation: str) -> float:
 
 
 def limiting_speed_rad_s(designation: str) -> float:
-    rpm = catalogue_entry(SEED_AS if designation == "seed" else designation).limiting_speed_rpm
+    rpm = rated_entry(designation).limiting_speed_rpm
     return rpm * 2.0 * math.pi / 60.0
 
 
