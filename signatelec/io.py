@@ -48,6 +48,30 @@ METADATA_KEY = b"signatelec"
 MARKER_FILE = ".signatelec.json"
 
 
+#: The stop signals received (Ctrl-C, SIGTERM) as the exceptions they raise; see :func:`stop_now`.
+_STOPS: list[BaseException] = []
+
+
+def record_stop(exc: BaseException) -> BaseException:
+    """Remember a stop signal's exception before it is raised: raised in an importer's or a
+    finaliser's callback, Python only prints it ("Exception ignored in ...") and goes on, so a
+    long job checks :func:`stop_now` at its own points as well. Returns ``exc``."""
+    _STOPS.append(exc)
+    return exc
+
+
+def stop_now() -> None:
+    """Raise (again) the first stop signal received, if any: at a point of a long job where it
+    may stop (never inside a ``finally``)."""
+    if _STOPS:
+        raise type(_STOPS[0])()
+
+
+def clear_stops() -> None:
+    """Forget the stop signals received (a command that ended, in a process that goes on)."""
+    _STOPS.clear()
+
+
 class OutputError(OSError):
     """The output location is refused before any work; the message names it (nothing written)."""
 

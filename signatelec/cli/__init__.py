@@ -39,13 +39,17 @@ from signatelec.cli.common import (  # noqa: E402
     load_scene,
 )
 from signatelec.config.scene import SceneError  # noqa: E402
-from signatelec.io import OutputError  # noqa: E402
+from signatelec.io import OutputError, clear_stops, record_stop  # noqa: E402
 
 __all__ = ["EXIT_CODES", "EXIT_INPUT", "InputError", "cli", "load_scene", "main"]
 
 
 def _raise_terminated(signum, frame) -> None:
-    raise Terminated()
+    raise record_stop(Terminated())
+
+
+def _raise_interrupted(signum, frame) -> None:
+    raise record_stop(KeyboardInterrupt())
 
 
 def one_line(text: str) -> str:
@@ -63,7 +67,7 @@ def main(argv: list[str] | None = None) -> None:
     previous = None
     with contextlib.suppress(ValueError):  # not the main thread: leave the handlers alone
         if signal.getsignal(signal.SIGINT) is _interrupted_while_starting:
-            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGINT, _raise_interrupted)
         previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         cli.main(args=argv, prog_name="signatelec", standalone_mode=False)
@@ -84,3 +88,4 @@ def main(argv: list[str] | None = None) -> None:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        clear_stops()

@@ -45,6 +45,7 @@ from signatelec.data.store import (
     write_manifest,
     write_part,
 )
+from signatelec.io import stop_now
 
 _THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -279,6 +280,7 @@ def _generate_into(spec, out, workers, client, progress, on_trace, log, t_start)
     if local:
         workers = min(workers, len(tasks)) if workers else 0
     warm_s = warm_up(ctx, imports=local and not workers) if tasks else 0.0  # compile first
+    stop_now()  # a Ctrl-C that an import's callback swallowed during the start-up stops here
     if local:
         cores = max(workers, 1)
         results = _local_results(ctx, tasks, workers, out, metadata, mp)
@@ -294,6 +296,7 @@ def _generate_into(spec, out, workers, client, progress, on_trace, log, t_start)
     cpu = 0.0
     try:
         for rec in results:  # each one's part file is written
+            stop_now()
             generated += 1
             failed += rec["status"] != STATUS_OK
             cpu += rec["cpu_s"]
