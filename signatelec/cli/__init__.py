@@ -69,6 +69,15 @@ def main(argv: list[str] | None = None) -> None:
         if signal.getsignal(signal.SIGINT) is _interrupted_while_starting:
             signal.signal(signal.SIGINT, _raise_interrupted)
         previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    unraisable = sys.unraisablehook
+
+    def quiet_stop(hook_args) -> None:
+        # a Ctrl-C or SIGTERM raised in a callback is recorded, and the command stops at its
+        # next point with its one line: its traceback is not printed
+        if not isinstance(hook_args.exc_value, KeyboardInterrupt):
+            unraisable(hook_args)
+
+    sys.unraisablehook = quiet_stop
     try:
         cli.main(args=argv, prog_name="signatelec", standalone_mode=False)
     except click.exceptions.Exit as exc:
@@ -88,4 +97,5 @@ def main(argv: list[str] | None = None) -> None:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = unraisable
         clear_stops()
