@@ -82,10 +82,13 @@ def _bootstrap_mape(ape_by_run: list[np.ndarray], rng: np.random.Generator) -> n
     return sums[picks].sum(axis=1) / counts[picks].sum(axis=1)
 
 
-def load_error_figures(pred: pd.DataFrame, seed: int = 14) -> pd.DataFrame:
+def load_error_figures(
+    pred: pd.DataFrame, seed: int = 14, judged: tuple[str, ...] | None = SPALLS
+) -> pd.DataFrame:
     """F_r MAPE of the default load-state model per condition with its bootstrap 95 % interval
-    (acceptance windows of the rows with a prediction), and for each spall location whether it
-    holds against the healthy runs (module docstring)."""
+    (acceptance windows of the rows with a prediction), and for each condition of ``judged``
+    (None: every one but healthy) whether it holds against the healthy runs (module
+    docstring)."""
     rows = pred[pred["acceptance"] & np.isfinite(pred["pred_load_radial_load_n"])]
     ape = np.abs(rows["pred_load_radial_load_n"] / rows["radial_load_n"] - 1.0)
     rows = rows.assign(ape=ape.to_numpy())
@@ -111,7 +114,7 @@ def load_error_figures(pred: pd.DataFrame, seed: int = 14) -> pd.DataFrame:
         h = healthy.iloc[0]
         half = 0.5 * (h["high"] - h["low"])
         for i, r in enumerate(table.itertuples()):
-            if r.condition in SPALLS:
+            if r.condition != "healthy" and (judged is None or r.condition in judged):
                 overlap = r.low <= h["high"] and r.high >= h["low"]
                 holds[i] = float(overlap and r.mape <= h["mape"] + half)
     return table.assign(holds=holds)
@@ -155,10 +158,13 @@ def markdown(alarms: pd.DataFrame, load: pd.DataFrame, quick: bool) -> list[str]
         "| condition | runs | windows | F_r MAPE | 95 % interval | holds |",
         "| --- | --- | --- | --- | --- | --- |",
     ]
-    for r in load.itertuples():
-        holds = "-" if not np.isfinite(r.holds) else ("yes" if r.holds else "no")
-        lines.append(
-            f"| {r.condition} | {r.runs} | {r.windows} | {_pct(r.mape)} | "
-            f"{_pct(r.low)} - {_pct(r.high)} | {holds} |"
-        )
+    lines += [f"| {' | '.join(load_cells(r))} |" for r in load.itertuples()]
     return [*lines, ""]
+
+
+def load_cells(row) -> list[str]:
+    """The cells of one row of :func:`load_error_figures` in a Markdown table: condition, runs,
+    windows, F_r MAPE, its interval and whether it holds."""
+    holds = "-" if not np.isfinite(row.holds) else ("yes" if row.holds else "no")
+    interval = f"{_pct(row.low)} - {_pct(row.high)}"
+    return [str(row.condition), str(row.runs), str(row.windows), _pct(row.mape), interval, holds]
