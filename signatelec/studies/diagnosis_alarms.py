@@ -17,8 +17,10 @@ healthy) and gives the exact one-sided upper bound of :func:`clopper_pearson_upp
 **Load state with a defect.** :func:`load_error_figures` gives the F_r MAPE of the default
 load-state model per condition with a bootstrap 95 % interval over the held-out runs (runs
 resampled, each run's windows kept together), and whether a spall's MAPE stays within the
-healthy one: its interval overlaps the healthy interval and its point value exceeds the healthy
-one by no more than the healthy interval's half-width. Under an unbalance, F_r is the static
+healthy one: its interval overlaps the healthy interval or lies below it, and its point value
+exceeds the healthy one by no more than the healthy interval's half-width (the requirement is
+that the error does not grow with a defect: an error smaller than the healthy one holds).
+Under an unbalance, F_r is the static
 radial load (the rotating force is a load the model is not asked about), so its MAPE is that of
 the static part.
 """
@@ -74,8 +76,10 @@ def alarm_figures(pred: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _bootstrap_mape(ape_by_run: list[np.ndarray], rng: np.random.Generator) -> np.ndarray:
-    """MAPE of ``BOOTSTRAP`` resamples of the runs (each run's windows kept together)."""
+def bootstrap_run_mean(values_by_run: list[np.ndarray], rng: np.random.Generator) -> np.ndarray:
+    """The mean over windows of ``BOOTSTRAP`` resamples of the runs (each run's windows kept
+    together): of absolute errors, a MAPE; of 0/1 hits, a coverage."""
+    ape_by_run = values_by_run
     sums = np.array([a.sum() for a in ape_by_run])
     counts = np.array([a.size for a in ape_by_run])
     picks = rng.integers(0, len(ape_by_run), size=(BOOTSTRAP, len(ape_by_run)))
@@ -96,7 +100,7 @@ def load_error_figures(
     out = []
     for condition, g in rows.groupby("condition", observed=True):
         by_run = [v.to_numpy() for _, v in g.groupby("run_id")["ape"]]
-        lo, hi = np.percentile(_bootstrap_mape(by_run, rng), [2.5, 97.5])
+        lo, hi = np.percentile(bootstrap_run_mean(by_run, rng), [2.5, 97.5])
         out.append(
             {
                 "condition": str(condition),
@@ -115,8 +119,8 @@ def load_error_figures(
         half = 0.5 * (h["high"] - h["low"])
         for i, r in enumerate(table.itertuples()):
             if r.condition != "healthy" and (judged is None or r.condition in judged):
-                overlap = r.low <= h["high"] and r.high >= h["low"]
-                holds[i] = float(overlap and r.mape <= h["mape"] + half)
+                not_above = r.low <= h["high"]  # overlapping, or below: not worse
+                holds[i] = float(not_above and r.mape <= h["mape"] + half)
     return table.assign(holds=holds)
 
 
@@ -150,10 +154,10 @@ def markdown(alarms: pd.DataFrame, load: pd.DataFrame, quick: bool) -> list[str]
         "",
         "F_r MAPE of the default load-state model on the held-out acceptance windows, with a "
         "bootstrap 95 % interval over the runs. A spall *holds* when its interval overlaps the "
-        "healthy one and its MAPE exceeds the healthy MAPE by at most the healthy interval's "
-        "half-width. Under an unbalance F_r is the static radial load (the rotating force "
-        "turns at shaft speed and averages out over a revolution); its row is the error on "
-        "that static part.",
+        "healthy one (or lies below it) and its MAPE exceeds the healthy MAPE by at most the "
+        "healthy interval's half-width. Under an unbalance F_r is the static radial load (the "
+        "rotating force turns at shaft speed and averages out over a revolution); its row is "
+        "the error on that static part.",
         "",
         "| condition | runs | windows | F_r MAPE | 95 % interval | holds |",
         "| --- | --- | --- | --- | --- | --- |",
