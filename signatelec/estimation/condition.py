@@ -14,7 +14,7 @@ log scale.
 The length interval's out-of-fold margin holds on runs like the training runs; the runs it is
 asked about may differ (the default model learns from DEM runs of the "fast" preset and is
 asked about the paper's fidelity: there the pooled margin covered 81 % of outer-race and 84 %
-of ball spalls at a nominal 90 %, and 96 % of inner-race ones, docs/diagnosis).
+of ball spalls at a nominal 90 %, and 96 % of inner-race ones: README, "Spall length").
 :meth:`ConditionEstimator.calibrate_lengths` sets one split-conformal margin per spall location
 on held-out runs of the kind it will be asked about (Romano, Patterson, Candes 2019: any
 held-out set exchangeable with the future runs calibrates the quantile models).
