@@ -14,7 +14,8 @@ reused unless ``--fresh``), the report (``diagnosis.md``,
 ``docs/diagnosis``). ``signatelec study diagnosis --out DIR`` runs the same into one directory.
 ``--ship`` also writes the default condition model's training table
 ``signatelec/estimation/data/condition_features.parquet`` (one measured window per training
-run, the condition model's features as float32).
+run, the condition model's features as float32) and its spall-length calibration table
+``condition_calibration.parquet`` (the held-out calibration runs' windows).
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ def main(argv: list[str] | None = None) -> dict:
         quick=args.quick,
         reuse=not args.fresh,
         workers=args.workers,
-        ship_to=CONDITION_TABLE if args.ship else None,
+        ship_to=CONDITION_TABLE.parent if args.ship else None,
         log=lambda msg: print(msg, flush=True),
     )
 

@@ -294,3 +294,53 @@ def test_a_defect_line_without_the_defect_is_a_wrong_speed(model_file, tmp_path,
     code = _run(["estimate", str(src), "--omega", "500", "--model", str(model_file)])
     err = capsys.readouterr().err
     assert code == 2 and "ripple at" in err and len(err.strip().splitlines()) == 1
+
+
+def _shifted_spalls(n_per_class: int, seed: int, spread: dict[str, float]):
+    """Numeric rows whose condition is told by feature 0 and whose log spall length is feature
+    1 plus Gaussian scatter of ``spread[condition]`` (on the log scale)."""
+    rng = np.random.default_rng(seed)
+    kinds = np.repeat(["healthy", "outer", "inner", "ball"], n_per_class)
+    centre = {"healthy": 0.0, "outer": 1.0, "inner": 2.0, "ball": 3.0}
+    x = rng.uniform(-1.0, 1.0, (kinds.size, 3))
+    x[:, 0] = [centre[k] for k in kinds] + 0.1 * rng.standard_normal(kinds.size)
+    scatter = np.array([spread.get(k, 0.0) for k in kinds])
+    length = np.exp(np.log(1e-3) + 0.5 * x[:, 1] + scatter * rng.standard_normal(kinds.size))
+    length[kinds == "healthy"] = np.nan
+    return x, kinds.astype(object), length
+
+
+def test_length_interval_calibrated_per_spall_location():
+    # trained where every location scatters by 0.1 in log length, asked where the outer-race
+    # lengths scatter by 0.3 and the others by 0.05 (as the "fast" training runs against the
+    # paper-fidelity runs): split-conformal margins per location on held-out windows of the
+    # new kind give each location its nominal coverage (Romano et al. 2019: at least 90 %,
+    # less than 90 % + 1/(n + 1) in expectation)
+    train = _shifted_spalls(150, 1, dict.fromkeys(("outer", "inner", "ball"), 0.1))
+    asked = {"outer": 0.3, "inner": 0.05, "ball": 0.05}
+    est = ConditionEstimator(max_iter=40, n_splits=3).fit(
+        train[0],
+        pd.DataFrame({"condition": train[1], "spall_length_m": train[2]}),
+        groups=np.arange(train[1].size),
+    )
+    test_x, test_kind, test_length = _shifted_spalls(600, 3, asked)
+
+    def coverage(kind):
+        frame = est.predict_frame(test_x)
+        rows = (test_kind == kind) & (frame["condition"].to_numpy() == kind)
+        lo, hi = (frame[f"spall_length_m{k}"].to_numpy()[rows] for k in ("_low", "_high"))
+        return np.mean((lo <= test_length[rows]) & (test_length[rows] <= hi))
+
+    before = {k: coverage(k) for k in asked}
+    assert before["outer"] < 0.75 and before["inner"] > 0.97  # the out-of-fold margin misses
+    est.calibrate_lengths(*_shifted_spalls(200, 2, asked))
+    assert set(est.length_calibration_) == set(asked)
+    assert all(n >= 190 for n, _ in est.length_calibration_.values())
+    for kind in asked:
+        # 600 test windows: binomial 3-sigma about 0.9 is +-0.037
+        assert 0.86 <= coverage(kind) <= 0.95, kind
+    # a location with too few calibration windows keeps the out-of-fold margin
+    x, kind, length = _shifted_spalls(4, 4, asked)
+    est.calibrate_lengths(x, kind, length)
+    assert est.length_calibration_ == {}
+    assert coverage("outer") == before["outer"]

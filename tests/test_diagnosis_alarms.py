@@ -64,11 +64,12 @@ def test_alarms_counted_by_run():
 
 
 def test_load_error_rule():
-    """A spall's MAPE holds when its interval overlaps the healthy one and its point value is
-    within the healthy half-width; twice the healthy error does not."""
+    """A spall's MAPE holds when its interval overlaps the healthy one (or lies below it) and
+    its point value is within the healthy half-width; twice the healthy error does not, half of
+    it does."""
     rng = np.random.default_rng(0)
     rows = []
-    for condition, scale in (("healthy", 1.0), ("outer", 1.0), ("inner", 2.0)):
+    for condition, scale in (("healthy", 1.0), ("outer", 1.0), ("inner", 2.0), ("ball", 0.5)):
         for run in range(60):
             ape = 0.005 * scale * rng.uniform(0.5, 1.5)
             for _ in range(3):
@@ -85,6 +86,8 @@ def test_load_error_rule():
     assert table.loc["healthy", "low"] < 0.005 < table.loc["healthy", "high"]
     assert table.loc["outer", "holds"] == 1.0
     assert table.loc["inner", "holds"] == 0.0
+    assert table.loc["ball", "high"] < table.loc["healthy", "low"]
+    assert table.loc["ball", "holds"] == 1.0
 
 
 def _pulses(f_hz: float, fs: float = 20000.0, duration_s: float = 0.2) -> np.ndarray:

@@ -116,6 +116,16 @@ def out_of_fold(
     return out
 
 
+def conformal_margin(scores: np.ndarray, coverage: float) -> float:
+    """The split-conformal margin of nonconformity ``scores`` (how far each calibration sample
+    lies outside its interval, negative inside): the ceil((n + 1) ``coverage``)-th smallest,
+    so that a new exchangeable sample falls within the interval widened by it with probability
+    at least ``coverage`` (Romano, Patterson, Candes 2019)."""
+    s = np.asarray(scores, dtype=np.float64)
+    level = min(1.0, math.ceil((s.size + 1) * coverage) / s.size)
+    return float(np.quantile(s, level, method="higher"))
+
+
 def _check_coverage(coverage) -> float:
     if not (isinstance(coverage, int | float) and 0.0 < coverage < 1.0):
         raise ValueError(f"coverage = {coverage!r}: must be in (0, 1)")
@@ -160,8 +170,7 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
         done = ~np.isnan(oof).any(axis=1)
         if done.any():
             s = np.maximum(oof[done, 0] - y[done], y[done] - oof[done, 1])
-            level = min(1.0, math.ceil((s.size + 1) * coverage) / s.size)
-            self.margin_ = float(np.quantile(s, level, method="higher"))
+            self.margin_ = conformal_margin(s, coverage)
         else:
             self.margin_ = 0.0
         return self
@@ -172,11 +181,16 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
             return self.forest_.raw(X)
         return np.stack([m.predict(X) for m in (self.median_, self.lower_, self.upper_)], axis=1)
 
-    def _median_and_interval(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _median_and_interval(
+        self, X: np.ndarray, margin: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Median and [low, high] of validated rows; ``margin`` (per row) instead of the
+        out-of-fold ``margin_``."""
         q = self._quantiles(X)
         mid = q[:, 0]
-        lo = np.minimum(q[:, 1] - self.margin_, mid)
-        hi = np.maximum(q[:, 2] + self.margin_, mid)
+        m = self.margin_ if margin is None else margin
+        lo = np.minimum(q[:, 1] - m, mid)
+        hi = np.maximum(q[:, 2] + m, mid)
         return mid, np.stack([lo, hi], axis=1)
 
     def predict(self, X):

@@ -35,7 +35,13 @@ from signatelec._version import __version__
 from signatelec.estimation.condition_features import CONDITION_FEATURE_SET_VERSION
 from signatelec.estimation.features import FEATURE_SET_VERSION
 from signatelec.estimation.models import LoadStateModel
-from signatelec.estimation.training import CONDITION_TABLE, DEFAULT_TABLE, train_default_model
+from signatelec.estimation.training import (
+    CALIBRATION_TABLE,
+    CONDITION_TABLE,
+    DEFAULT_RECIPE,
+    DEFAULT_TABLE,
+    train_default_model,
+)
 from signatelec.io import cache_dir, write_bytes_atomic
 
 MODEL_FORMAT = "signatelec-load-state-model"
@@ -188,14 +194,15 @@ def load_model(path: str | Path) -> LoadStateModel:
 
 def default_model_path(table: Path = DEFAULT_TABLE) -> Path:
     """The cache entry of the default model: one per release, feature set, model format,
-    scikit-learn and shipped tables (load state and condition)."""
+    training recipe, scikit-learn and shipped tables (load state, condition, calibration)."""
     digest = hashlib.sha256(table.read_bytes())
-    if CONDITION_TABLE.is_file():
-        digest.update(CONDITION_TABLE.read_bytes())
+    for shipped in (CONDITION_TABLE, CALIBRATION_TABLE):
+        if shipped.is_file():
+            digest.update(shipped.read_bytes())
     digest = digest.hexdigest()[:10]
     name = (
         f"load_state-{__version__}-fs{FEATURE_SET_VERSION}-m{MODEL_FORMAT_VERSION}-"
-        f"sklearn{sklearn.__version__}-{digest}.model"
+        f"r{DEFAULT_RECIPE}-sklearn{sklearn.__version__}-{digest}.model"
     )
     return cache_dir("models") / name
 

@@ -13,7 +13,9 @@ bearing, on held-out paper-fidelity DEM runs.
    of white noise 0.05-1 % log-uniform, drift up to 0.1 %; test: the acceptance condition,
    0.2 % noise over the whole 0.2 s, and the noise scan :data:`NOISE_SCAN`), load-state and
    condition features of each;
-3. **train** the condition model on every training window (both bearings), predict the test
+3. **train** the condition model on every training window (both bearings), calibrate its
+   spall-length interval per spall location on :data:`CALIBRATION_RUNS` held-out
+   paper-fidelity runs per location and bearing (:func:`calibration_rows`), predict the test
    windows; the shipped default load-state model predicts F_r on them;
 4. **false alarms** (:mod:`signatelec.studies.diagnosis_alarms`): held-out healthy runs
    enough to bound the false-alarm rate (Clopper-Pearson), each measured once;
@@ -24,8 +26,8 @@ bearing, on held-out paper-fidelity DEM runs.
    Parquet, Markdown and PNG into the report directory, and the README's figures (a trace and
    its envelope spectrum per condition).
 
-``ship_to`` writes the default condition model's training table
-(``signatelec/estimation/data/condition_features.parquet``).
+``ship_to`` writes the default condition model's training and calibration tables
+(``signatelec/estimation/data/condition_features.parquet``, ``condition_calibration.parquet``).
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ from signatelec.config.catalogue import catalogue_bearing
 from signatelec.config.scene import Scene
 from signatelec.data import generate as generate_dataset
 from signatelec.data import spec_from_dict
+from signatelec.estimation.condition import SPALLS
 from signatelec.estimation.condition_features import condition_features
 from signatelec.estimation.features import trace_features
 from signatelec.measurement.model import MeasurementModel
@@ -78,6 +81,13 @@ QUICK_ALARM_RUNS = 2
 ALARM_KEY = 700
 #: Seed offset of the false-alarm runs (their draws share none with the training or test runs).
 ALARM_SEED_OFFSET = 1000
+#: Held-out runs per spall location and bearing on which the spall-length interval is
+#: calibrated (the paper's fidelity, like the runs it is asked about; their own seed).
+CALIBRATION_RUNS = 40
+#: Runs per spall location and bearing of the quick variant.
+QUICK_CALIBRATION_RUNS = 2
+#: Seed offset of the calibration runs, and the spawn-key word of their measurement draws.
+CALIBRATION_SEED_OFFSET, CALIBRATION_KEY = 2000, 800
 SHIPPED_COLUMNS = ("run_id", "bearing", "noise_fraction", "radial_load_n", "condition")
 #: The load-state labels the shipped table carries too: the default load-state model learns
 #: from these runs (signatelec.estimation.training.faulty_load_rows); F_r is the static load.
@@ -102,12 +112,19 @@ def _rng(*key: int) -> np.random.Generator:
 
 
 def study_spec(
-    spec_path: Path, bearing: str, test: bool, quick: bool, healthy_runs: int | None = None
+    spec_path: Path,
+    bearing: str,
+    test: bool,
+    quick: bool,
+    healthy_runs: int | None = None,
+    spall_runs: int | None = None,
 ):
     """The dataset spec of a bearing's training runs (``test``: its held-out paper-fidelity
     runs); ``quick``: 3 training runs (test: 1) per condition, all at the "fast" preset.
     ``healthy_runs``: instead, that many held-out healthy runs of their own seed (the
-    false-alarm runs of :mod:`signatelec.studies.diagnosis_alarms`)."""
+    false-alarm runs of :mod:`signatelec.studies.diagnosis_alarms`); ``spall_runs``: that many
+    held-out runs per spall location of their own seed (the spall-length calibration runs of
+    :func:`calibration_rows`)."""
     data = tomllib.loads(Path(spec_path).read_text())
     ds = data["dataset"]
     index = BEARINGS.index(bearing) if bearing in BEARINGS else len(BEARINGS)
@@ -118,6 +135,11 @@ def study_spec(
         data["design"] = [b for b in blocks if b["factors"]["condition"]["value"] == "healthy"]
         ds["name"] = f"{ds['name']}_alarms"
         ds["seed"] += ALARM_SEED_OFFSET
+    elif spall_runs is not None:
+        blocks = data["design"]
+        data["design"] = [b for b in blocks if b["factors"]["condition"]["value"] in SPALLS]
+        ds["name"] = f"{ds['name']}_calibration"
+        ds["seed"] += CALIBRATION_SEED_OFFSET
     if test and not quick:
         ds["fidelity"] = "dem"
     if bearing != "seed":
@@ -132,6 +154,8 @@ def study_spec(
             f["min"], f["max"] = f["min"] * ratio, f["max"] * ratio
         if healthy_runs is not None:
             block["n_traces"] = healthy_runs
+        elif spall_runs is not None:
+            block["n_traces"] = spall_runs
         elif quick:
             block["n_traces"] = 1 if test else 3
         elif test:
@@ -293,6 +317,48 @@ def load_predictions(table: pd.DataFrame) -> np.ndarray:
     return out
 
 
+def held_out_rows(
+    out: Path,
+    spec_path: Path,
+    kind: str,
+    runs_per_block: int,
+    *,
+    draws: int,
+    draw,
+    key: int,
+    quick: bool = False,
+    reuse: bool = True,
+    workers: int = 0,
+    log: Log | None = None,
+) -> pd.DataFrame:
+    """Held-out paper-fidelity runs (``quick``: the "fast" preset) of their own seed,
+    generated (or resumed) into ``out/runs_<bearing>/<kind>`` and measured ``draws`` times
+    each with ``draw``: ``kind`` "alarms", ``runs_per_block`` healthy runs per bearing;
+    "calibration", that many per spall location and bearing. The measured rows are cached in
+    ``out/features_<kind>.parquet`` (read again when ``reuse`` and complete)."""
+    log = log or _quiet
+    path = out / f"features_{kind}.parquet"
+    spec_kw = {"healthy_runs" if kind == "alarms" else "spall_runs": runs_per_block}
+    blocks = 1 if kind == "alarms" else len(SPALLS)
+    n = runs_per_block * blocks * draws * len(BEARINGS)
+    rows = pd.read_parquet(path) if reuse and path.is_file() else None
+    if rows is None or len(rows) != n:
+        parts = []
+        for bearing in BEARINGS:
+            spec = study_spec(spec_path, bearing, True, quick, **spec_kw)
+            d = out / f"runs_{bearing}" / kind
+            t0 = time.perf_counter()
+            summary = generate_dataset(spec, d, workers=workers)
+            log(
+                f"generate {spec.name}: {summary.generated} new runs, {summary.n_traces} in all, "
+                f"{time.perf_counter() - t0:.0f} s"
+            )
+            parts += measured_rows(load_runs(d, log), bearing, draws, draw, key)
+        rows = pd.DataFrame(parts)
+        rows.to_parquet(path, index=False)
+    return rows
+
+
 def alarm_predictions(
     out: Path,
     spec_path: Path,
@@ -303,29 +369,69 @@ def alarm_predictions(
     workers: int = 0,
     log: Log | None = None,
 ) -> pd.DataFrame:
-    """Generate (or resume) the false-alarm runs, measure them and ask the condition
-    ``model``: one row per run with its labels, features and ``pred_`` columns. The measured
-    rows are cached in ``out/features_alarms.parquet`` (read again when ``reuse``)."""
-    log = log or _quiet
+    """Generate (or resume) the false-alarm runs, measure each once at the acceptance
+    condition and ask the condition ``model``: one row per run with its labels, features and
+    ``pred_`` columns (cached as :func:`held_out_rows` says)."""
     n = QUICK_ALARM_RUNS if quick else ALARM_RUNS
-    path = out / "features_alarms.parquet"
-    rows = pd.read_parquet(path) if reuse and path.is_file() else None
-    if rows is None or len(rows) != n * len(BEARINGS):
-        parts = []
-        for bearing in BEARINGS:
-            spec = study_spec(spec_path, bearing, True, quick, healthy_runs=n)
-            d = out / f"runs_{bearing}" / "alarms"
-            t0 = time.perf_counter()
-            summary = generate_dataset(spec, d, workers=workers)
-            log(
-                f"generate {spec.name}: {summary.generated} new runs, {summary.n_traces} in all, "
-                f"{time.perf_counter() - t0:.0f} s"
-            )
-            runs = load_runs(d, log)
-            parts += measured_rows(runs, bearing, 1, fixed_draw(ACCEPT_NOISE), ALARM_KEY)
-        rows = pd.DataFrame(parts)
-        rows.to_parquet(path, index=False)
+    rows = held_out_rows(
+        out,
+        spec_path,
+        "alarms",
+        n,
+        draws=1,
+        draw=fixed_draw(ACCEPT_NOISE),
+        key=ALARM_KEY,
+        quick=quick,
+        reuse=reuse,
+        workers=workers,
+        log=log,
+    )
     return predict_rows(model, rows)
+
+
+def calibration_rows(
+    out: Path,
+    spec_path: Path,
+    *,
+    quick: bool,
+    reuse: bool = True,
+    workers: int = 0,
+    log: Log | None = None,
+) -> pd.DataFrame:
+    """The spall-length calibration windows: :data:`CALIBRATION_RUNS` held-out spalled runs
+    per location and bearing at the paper's fidelity (the design's spall lengths, depths and
+    positions, their own seed), each measured :data:`TRAIN_DRAWS` times as the training runs
+    are (white noise 0.05-1 %): the runs the default model is asked about, not its "fast"
+    training runs, so the conformal margin holds on them
+    (:meth:`~signatelec.estimation.condition.ConditionEstimator.calibrate_lengths`)."""
+    n = QUICK_CALIBRATION_RUNS if quick else CALIBRATION_RUNS
+    return held_out_rows(
+        out,
+        spec_path,
+        "calibration",
+        n,
+        draws=TRAIN_DRAWS,
+        draw=train_draw,
+        key=CALIBRATION_KEY,
+        quick=quick,
+        reuse=reuse,
+        workers=workers,
+        log=log,
+    )
+
+
+def shipped_calibration_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """The default condition model's calibration table: the calibration windows' labels and
+    condition features, numbers as float32."""
+    from signatelec.estimation.training import condition_model_features
+
+    keep = ["run_id", "bearing", "window", "noise_fraction", "condition", "spall_length_m"]
+    out = rows[keep + condition_model_features()].reset_index(drop=True).copy()
+    numbers = [c for c in out.columns if c not in ("run_id", "bearing", "condition")]
+    out[numbers] = out[numbers].astype(np.float32)
+    for c in ("bearing", "condition"):
+        out[c] = out[c].astype("category")
+    return out
 
 
 def shipped_condition_table(train: pd.DataFrame) -> pd.DataFrame:
@@ -346,6 +452,51 @@ def shipped_condition_table(train: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def calibration_check(model, calibration: pd.DataFrame) -> dict[str, tuple[int, float]]:
+    """Coverage of the calibrated length interval on calibration runs it was not calibrated
+    on: the runs split in two halves, each half's windows answered by ``model``'s estimator
+    calibrated on the other half; per spall location, (windows detected and typed right,
+    share of true lengths inside)."""
+    import copy
+
+    runs = np.unique(calibration["run_id"])
+    half = calibration["run_id"].isin(runs[::2]).to_numpy()
+    hits: dict[str, list[bool]] = {}
+    for fit_rows in (half, ~half):
+        est = copy.deepcopy(model.estimator)
+        cal = calibration[fit_rows]
+        est.calibrate_lengths(
+            cal[model.features], cal["condition"].astype(str), cal["spall_length_m"]
+        )
+        rows = calibration[~fit_rows]
+        frame = est.predict_frame(rows[model.features])
+        truth = rows["condition"].astype(str).to_numpy()
+        length = rows["spall_length_m"].to_numpy()
+        inside = (frame["spall_length_m_low"] <= length) & (length <= frame["spall_length_m_high"])
+        for c in SPALLS:
+            right = (truth == c) & (frame["condition"].to_numpy() == c)
+            hits.setdefault(c, []).extend(inside.to_numpy()[right])
+    return {c: (len(h), float(np.mean(h)) if h else float("nan")) for c, h in hits.items()}
+
+
+def _calibration_text(model, calibration: pd.DataFrame) -> str:
+    """The length interval's margins, per spall location and out of fold, and their check on
+    held-out halves of the calibration runs (:func:`calibration_check`), in words."""
+    estimator = model.estimator
+    per = "; ".join(
+        f"{c} {m:+.3f} ({n} windows)" for c, (n, m) in estimator.length_calibration_.items()
+    )
+    oof = estimator.severity_.margin_ if estimator.severity_ is not None else float("nan")
+    check = "; ".join(
+        f"{c} {100 * v:.1f} % of {n}" for c, (n, v) in calibration_check(model, calibration).items()
+    )
+    return (
+        f"margins on the log length: {per or 'none (too few windows)'}; out of fold on the "
+        f"training runs {oof:+.3f}. Calibrated on half of these runs and asked about the other "
+        f"half, the true length falls inside for {check} windows"
+    )
+
+
 def run_study(
     out: Path,
     report_dir: Path,
@@ -357,21 +508,34 @@ def run_study(
     ship_to: Path | None = None,
     log: Log = _quiet,
 ) -> dict:
-    """The whole study (module docstring); returns the acceptance figures."""
+    """The whole study (module docstring); returns the acceptance figures. ``ship_to``: the
+    directory the default condition model's training and calibration tables are written to
+    (:data:`~signatelec.estimation.training.CONDITION_TABLE`,
+    :data:`~signatelec.estimation.training.CALIBRATION_TABLE`)."""
     from signatelec.estimation.condition import ConditionEstimator
-    from signatelec.estimation.training import train_condition
+    from signatelec.estimation.training import (
+        CALIBRATION_TABLE,
+        CONDITION_TABLE,
+        train_condition,
+    )
     from signatelec.io import write_bytes_atomic
     from signatelec.studies.diagnosis_report import report
 
     t_start = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     train, test = feature_tables(out, spec_path, quick, reuse, workers, log)
-    t0 = time.process_time()
     shipped = shipped_condition_table(train)
     # one thread: OpenMP threads spinning on a shared, busy machine only burn its CPU
+    calibration = shipped_calibration_table(
+        calibration_rows(out, spec_path, quick=quick, reuse=reuse, workers=workers, log=log)
+    )
+    t0 = time.process_time()
     with threadpool_limits(1):
         model = train_condition(
-            shipped, estimator=ConditionEstimator(), source=f"{spec_path.name} (study)"
+            shipped,
+            estimator=ConditionEstimator(),
+            source=f"{spec_path.name} (study)",
+            calibration=calibration,
         )
         fit_cpu_s = time.process_time() - t0
         log(f"train: {len(shipped)} runs, {fit_cpu_s:.0f} s CPU")
@@ -386,16 +550,20 @@ def run_study(
     if ship_to is not None:
         import io
 
-        buf = io.BytesIO()
-        shipped.to_parquet(buf, index=False)
-        write_bytes_atomic(ship_to, buf.getvalue())
-        log(f"shipped {ship_to} ({ship_to.stat().st_size / 1e3:.0f} kB, {len(shipped)} rows)")
+        for table, name in ((shipped, CONDITION_TABLE.name), (calibration, CALIBRATION_TABLE.name)):
+            buf = io.BytesIO()
+            table.to_parquet(buf, index=False)
+            path = Path(ship_to) / name
+            write_bytes_atomic(path, buf.getvalue())
+            log(f"shipped {path} ({path.stat().st_size / 1e3:.0f} kB, {len(table)} rows)")
     figures = report(
         pred,
         report_dir,
         out,
         info={
             "train_runs": int(shipped["run_id"].nunique()),
+            "calibration_runs": int(calibration["run_id"].nunique()),
+            "calibration": _calibration_text(model, calibration),
             "fit_cpu_s": fit_cpu_s,
             "quick": quick,
             "elapsed_s": time.perf_counter() - t_start,

@@ -17,8 +17,10 @@ healthy) and gives the exact one-sided upper bound of :func:`clopper_pearson_upp
 **Load state with a defect.** :func:`load_error_figures` gives the F_r MAPE of the default
 load-state model per condition with a bootstrap 95 % interval over the held-out runs (runs
 resampled, each run's windows kept together), and whether a spall's MAPE stays within the
-healthy one: its interval overlaps the healthy interval and its point value exceeds the healthy
-one by no more than the healthy interval's half-width. Under an unbalance, F_r is the static
+healthy one: its interval overlaps the healthy interval or lies below it, and its point value
+exceeds the healthy one by no more than the healthy interval's half-width (the requirement is
+that the error does not grow with a defect: an error smaller than the healthy one holds).
+Under an unbalance, F_r is the static
 radial load (the rotating force is a load the model is not asked about), so its MAPE is that of
 the static part.
 """
@@ -74,18 +76,23 @@ def alarm_figures(pred: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _bootstrap_mape(ape_by_run: list[np.ndarray], rng: np.random.Generator) -> np.ndarray:
-    """MAPE of ``BOOTSTRAP`` resamples of the runs (each run's windows kept together)."""
+def bootstrap_run_mean(values_by_run: list[np.ndarray], rng: np.random.Generator) -> np.ndarray:
+    """The mean over windows of ``BOOTSTRAP`` resamples of the runs (each run's windows kept
+    together): of absolute errors, a MAPE; of 0/1 hits, a coverage."""
+    ape_by_run = values_by_run
     sums = np.array([a.sum() for a in ape_by_run])
     counts = np.array([a.size for a in ape_by_run])
     picks = rng.integers(0, len(ape_by_run), size=(BOOTSTRAP, len(ape_by_run)))
     return sums[picks].sum(axis=1) / counts[picks].sum(axis=1)
 
 
-def load_error_figures(pred: pd.DataFrame, seed: int = 14) -> pd.DataFrame:
+def load_error_figures(
+    pred: pd.DataFrame, seed: int = 14, judged: tuple[str, ...] | None = SPALLS
+) -> pd.DataFrame:
     """F_r MAPE of the default load-state model per condition with its bootstrap 95 % interval
-    (acceptance windows of the rows with a prediction), and for each spall location whether it
-    holds against the healthy runs (module docstring)."""
+    (acceptance windows of the rows with a prediction), and for each condition of ``judged``
+    (None: every one but healthy) whether it holds against the healthy runs (module
+    docstring)."""
     rows = pred[pred["acceptance"] & np.isfinite(pred["pred_load_radial_load_n"])]
     ape = np.abs(rows["pred_load_radial_load_n"] / rows["radial_load_n"] - 1.0)
     rows = rows.assign(ape=ape.to_numpy())
@@ -93,7 +100,7 @@ def load_error_figures(pred: pd.DataFrame, seed: int = 14) -> pd.DataFrame:
     out = []
     for condition, g in rows.groupby("condition", observed=True):
         by_run = [v.to_numpy() for _, v in g.groupby("run_id")["ape"]]
-        lo, hi = np.percentile(_bootstrap_mape(by_run, rng), [2.5, 97.5])
+        lo, hi = np.percentile(bootstrap_run_mean(by_run, rng), [2.5, 97.5])
         out.append(
             {
                 "condition": str(condition),
@@ -111,9 +118,9 @@ def load_error_figures(pred: pd.DataFrame, seed: int = 14) -> pd.DataFrame:
         h = healthy.iloc[0]
         half = 0.5 * (h["high"] - h["low"])
         for i, r in enumerate(table.itertuples()):
-            if r.condition in SPALLS:
-                overlap = r.low <= h["high"] and r.high >= h["low"]
-                holds[i] = float(overlap and r.mape <= h["mape"] + half)
+            if r.condition != "healthy" and (judged is None or r.condition in judged):
+                not_above = r.low <= h["high"]  # overlapping, or below: not worse
+                holds[i] = float(not_above and r.mape <= h["mape"] + half)
     return table.assign(holds=holds)
 
 
@@ -147,18 +154,21 @@ def markdown(alarms: pd.DataFrame, load: pd.DataFrame, quick: bool) -> list[str]
         "",
         "F_r MAPE of the default load-state model on the held-out acceptance windows, with a "
         "bootstrap 95 % interval over the runs. A spall *holds* when its interval overlaps the "
-        "healthy one and its MAPE exceeds the healthy MAPE by at most the healthy interval's "
-        "half-width. Under an unbalance F_r is the static radial load (the rotating force "
-        "turns at shaft speed and averages out over a revolution); its row is the error on "
-        "that static part.",
+        "healthy one (or lies below it) and its MAPE exceeds the healthy MAPE by at most the "
+        "healthy interval's half-width. Under an unbalance F_r is the static radial load (the "
+        "rotating force turns at shaft speed and averages out over a revolution); its row is "
+        "the error on that static part.",
         "",
         "| condition | runs | windows | F_r MAPE | 95 % interval | holds |",
         "| --- | --- | --- | --- | --- | --- |",
     ]
-    for r in load.itertuples():
-        holds = "-" if not np.isfinite(r.holds) else ("yes" if r.holds else "no")
-        lines.append(
-            f"| {r.condition} | {r.runs} | {r.windows} | {_pct(r.mape)} | "
-            f"{_pct(r.low)} - {_pct(r.high)} | {holds} |"
-        )
+    lines += [f"| {' | '.join(load_cells(r))} |" for r in load.itertuples()]
     return [*lines, ""]
+
+
+def load_cells(row) -> list[str]:
+    """The cells of one row of :func:`load_error_figures` in a Markdown table: condition, runs,
+    windows, F_r MAPE, its interval and whether it holds."""
+    holds = "-" if not np.isfinite(row.holds) else ("yes" if row.holds else "no")
+    interval = f"{_pct(row.low)} - {_pct(row.high)}"
+    return [str(row.condition), str(row.runs), str(row.windows), _pct(row.mape), interval, holds]
