@@ -288,7 +288,8 @@ def prepare_trace(
     # cut missing ends, then check the inner gaps
     good = np.flatnonzero(~bad)
     lo, hi = int(good[0]), int(good[-1]) + 1
-    if lo > 0 or hi < r.size:
+    cut = lo > 0 or hi < r.size
+    if cut:
         repairs.append(f"cut {lo + r.size - hi} missing samples at the ends")
         t, r, bad = t[lo:hi], r[lo:hi], bad[lo:hi]
     for a, b in _runs(bad):
@@ -309,10 +310,12 @@ def prepare_trace(
             else (f"{int(bad.sum()) - n_open} missing and {n_open} open-circuit samples")
         )
         repairs.append(f"interpolated {what}")
-    # uniform sampling
-    dt = np.diff(t)
-    step = float(np.median(dt))
-    fs = 1.0 / step
+    # uniform sampling (the time steps and their median change only if the ends were cut: a
+    # median of a long block's steps is a good part of a monitored window's cost)
+    if cut:
+        dt = np.diff(t)
+        step = float(np.median(dt))
+        fs = 1.0 / step
     big = np.flatnonzero(dt > max_gap_s)
     if big.size:
         i = int(big[0])
