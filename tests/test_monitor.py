@@ -367,3 +367,54 @@ def test_condition_output_becomes_a_change(tiles, tmp_path):
     assert "condition" in kinds and "load" not in kinds
     assert kinds["condition"]["time_s"] == pytest.approx(truth[0], abs=0.2)
     assert [s["condition"] for s in stretches] == ["quiet", "noisy"]
+
+
+def test_ratio_per_regime_covers_within_each():
+    """Stretches whose model error, in units of their windows' interval sd w, is N(0, 0.3^2)
+    in one regime and N(0, 1) in another: the split-conformal ratio of each regime is the 90 %
+    quantile of |error| / (z90 w), i.e. the error's sd (0.3 and 1; the quantile of 300
+    stretches scatters by ~4 %), and covers 90 % of new stretches within each regime, where
+    one ratio over both covers the mix but neither regime (Vovk et al. 2005, ch. 4.5:
+    Mondrian conformal prediction is valid within each category)."""
+    from signatelec.estimation.evidence import ANY_REGIME
+    from signatelec.studies.monitor_metrics import (
+        TARGETS,
+        _coverage_with,
+        calibrate_bias_ratio,
+    )
+
+    rng = np.random.default_rng(11)
+    sd = {"preload": 0.3, "clearance": 1.0}
+
+    def stretches(n):
+        rows = []
+        for regime, s in sd.items():
+            for _ in range(n):
+                row = {"state": len(rows), "regime": regime, "regime_est": regime}
+                for target in TARGETS:
+                    w = rng.uniform(0.5, 2.0) * (0.01 if target == "radial_load_n" else 1e-6)
+                    err = rng.normal(0.0, s * w)
+                    true = 5000.0 if target == "radial_load_n" else 2e-5
+                    est = true * math.exp(err) if target == "radial_load_n" else true + err
+                    row.update({target: true, f"{target}_est": est, f"{target}_se_noise": 0.0})
+                    row[f"{target}_window_sd"] = w
+                rows.append(row)
+        return pd.DataFrame(rows)
+
+    ratios = calibrate_bias_ratio(stretches(300))
+    new = stretches(2000)
+    for target in TARGETS:
+        for regime, s in sd.items():
+            # measured within 6.3 % of it
+            assert ratios[target][regime] == pytest.approx(s, rel=0.12)
+        per_regime = _coverage_with(new, ratios, target, True)
+        one = _coverage_with(new, ratios, target, False)
+        for regime in sd:
+            mask = (new.regime == regime).to_numpy()
+            # conformal: >= 90 % in expectation, ~1.7 points of calibration scatter; measured
+            # 88.2-92.4 %
+            assert 0.86 <= per_regime[mask].mean() <= 0.95, (target, regime)
+        assert one[(new.regime == "preload").to_numpy()].mean() > 0.98
+        # one ratio (~0.8) covers |N(0, 1)| <= 0.8 z90 of the time: ~81 %; measured 78.6-84 %
+        assert one[(new.regime == "clearance").to_numpy()].mean() < 0.87
+        assert ratios[target][ANY_REGIME] > ratios[target]["preload"]

@@ -27,10 +27,16 @@ rho_k) (Bartlett, rho_k their autocorrelation at lag k, K = n^(1/3)): the indepe
 assumption is checked on the windows themselves, and this part shrinks as the stretch grows.
 And the model's own error for that state, which does not shrink (the windows of one state share
 it): ``bias_ratio`` times the root-mean-square standard deviation of the windows' intervals
-(their width / 2 z90), a ratio per target calibrated by split conformal prediction (Vovk,
-Gammerman, Shafer 2005, ch. 2; Lei et al. 2018, JASA 113, 1094) on held-out runs that are not
-the acceptance records (:data:`BIAS_RATIO`; ``signatelec study monitor`` measures it). The two
-parts add in quadrature: half-width z90 (b^2 + s^2 / n_eff)^(1/2). A class output combines the
+(their width / 2 z90), a ratio per target and per regime the stretch is estimated in,
+calibrated by Mondrian split conformal prediction (Vovk, Gammerman, Shafer 2005, ch. 2 and
+4.5: the conformal quantile taken within each category of a taxonomy known at prediction time,
+here the estimated regime, so that the coverage holds within each regime, not only over their
+mix; Lei et al. 2018, JASA 113, 1094) on held-out runs that are not the acceptance records
+(:data:`BIAS_RATIO`; ``signatelec study monitor`` measures it). One ratio per target
+over-covered in the zero and preload regimes and under-covered in the clearance regime: the
+clearance of a zero or preloaded bearing is known more closely, relative to its windows'
+intervals, than a clearance is. The two parts add in quadrature: half-width
+z90 (b^2 w^2 + s^2 / n_eff)^(1/2). A class output combines the
 windows' log-probabilities, each weighted n_eff / n (the same correction for correlation).
 
 **Alarms** (:func:`alarms`): at each change, a load change beyond ``load_threshold`` (with the
@@ -49,10 +55,18 @@ from scipy import stats
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)
 #: The model's error of a state (shared by its windows) in units of the windows' interval
-#: standard deviation, per target: split-conformal 90 % quantile over the stretches of the
-#: calibration records of ``signatelec study monitor`` (docs/monitor: held-out paper-fidelity
-#: DEM states drawn apart from the acceptance records', default model, 0.2 s windows).
-BIAS_RATIO = {"radial_load_n": 0.714, "epsilon": 0.516, "clearance_m": 0.590}
+#: standard deviation, per target and estimated regime: Mondrian split-conformal 90 % quantile
+#: over the stretches of the calibration records of ``signatelec study monitor`` estimated in
+#: that regime (docs/monitor: held-out paper-fidelity DEM states drawn apart from the
+#: acceptance records', default model, 0.2 s windows); ``"any"``: over all of them, for a
+#: stretch without a regime.
+BIAS_RATIO = {
+    "radial_load_n": {"any": 0.714, "clearance": 0.91, "preload": 0.716, "zero": 0.325},
+    "epsilon": {"any": 0.516, "clearance": 1.144, "preload": 0.516, "zero": 0.218},
+    "clearance_m": {"any": 0.590, "clearance": 0.68, "preload": 0.42, "zero": 0.11},
+}
+#: The category of a stretch without an estimated regime.
+ANY_REGIME = "any"
 #: Fewest windows on either side of a change.
 MIN_SEGMENT = 3
 #: Class outputs of the model, each with ``<name>_probability_<class>`` columns.
@@ -241,10 +255,19 @@ def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None
 
 
 def combine_stretch(windows: pd.DataFrame, bias_ratio: dict | None = None) -> dict:
-    """One stretch's estimate from its usable windows (``bias_ratio``: per target, default
-    :data:`BIAS_RATIO`)."""
+    """One stretch's estimate from its usable windows (``bias_ratio``: per target, per
+    estimated regime and :data:`ANY_REGIME`; default :data:`BIAS_RATIO`)."""
     ratios = BIAS_RATIO if bias_ratio is None else bias_ratio
     out: dict = {"n_windows": int(len(windows))}
+    classes = {}
+    for name in CLASS_OUTPUTS:
+        probs = combine_classes(windows, name)
+        if probs:
+            best = max(probs, key=probs.get)
+            classes[name] = best
+            classes[f"{name}_probability"] = probs[best]
+            classes.update({f"{name}_probability_{k}": v for k, v in probs.items()})
+    regime = classes.get("regime", ANY_REGIME)
     for target, scale in TARGET_SCALES.items():
         if target not in windows:
             continue
@@ -253,21 +276,14 @@ def combine_stretch(windows: pd.DataFrame, bias_ratio: dict | None = None) -> di
             windows[f"{target}_low"],
             windows[f"{target}_high"],
             scale == "log",
-            ratios[target],
+            ratios[target].get(regime, ratios[target][ANY_REGIME]),
         )
         out[target] = c["value"]
         out[f"{target}_low"] = c["low"]
         out[f"{target}_high"] = c["high"]
         for part in ("se_noise", "n_eff", "window_sd"):
             out[f"{target}_{part}"] = c[part]
-    for name in CLASS_OUTPUTS:
-        probs = combine_classes(windows, name)
-        if probs:
-            best = max(probs, key=probs.get)
-            out[name] = best
-            out[f"{name}_probability"] = probs[best]
-            out.update({f"{name}_probability_{k}": v for k, v in probs.items()})
-    return out
+    return {**out, **classes}
 
 
 def usable(windows: pd.DataFrame) -> pd.DataFrame:

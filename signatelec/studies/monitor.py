@@ -113,6 +113,7 @@ def run_study(
     from signatelec.studies.monitor_metrics import (
         acceptance_report,
         calibrate_bias_ratio,
+        cross_validated_coverage,
         throughput_table,
     )
 
@@ -129,13 +130,16 @@ def run_study(
     n_cal = 2 if quick else N_CALIBRATION_RECORDS
     cal_truth, _, _ = run_records(calibration, model, work, n_cal, None, log, CALIBRATION_SEED + 1)
     ratios = calibrate_bias_ratio(cal_truth)
+    cross_validation = cross_validated_coverage(cal_truth)
     if log:
         log(f"calibrated bias ratios: {ratios}")
     n = 2 if quick else N_RECORDS
     const = 10.0 if quick else CONSTANT_S
     truth, changes, info = run_records(bank, model, work, n, const, log, bias_ratio=ratios)
     info["bias_ratio"] = ratios
+    info["bank"] = {"states": len(bank), "regimes": bank.regime.value_counts().to_dict()}
     info["calibration"] = {"states": len(calibration), "stretches": len(cal_truth)}
+    info["cross_validation"] = cross_validation
     windows, table, settings, stretches, chg, alarms = info.pop("example")
     summary = summary_of(table, settings, stretches, chg, alarms, {})
     paths = {"figure": out / "monitor_example.png"}
