@@ -17,7 +17,7 @@ PERIOD_NODES) = 1.2e-4 rad for the seed's bearing). Where a contact
 opens or closes within the stencil the columns are not smooth (Hertz: force ~ delta^{3/2}, the
 contact radius and a ball's conductance ~ delta^{1/2}, Hamrock-Brewe and seed eq. 16), so the
 instants within :data:`SMOOTH_MARGIN` grid intervals of a change of the contact pattern are
-solved one by one, as the per-instant tier does (0.8 % of them for the seed's scene), each
+solved one by one, as the per-instant tier does (0.5 % of them for the seed's scene), each
 Newton started from the instant's interpolated ring shift. The
 columns that are a maximum or a count over the balls (largest ball load, loaded balls, largest
 current density) are formed at each instant from the interpolated ball columns, not
@@ -45,8 +45,11 @@ PERIOD_NODES = 4096
 #: one. Measured on the seed's scene (largest error over the columns, relative to each column's
 #: largest value; the ring's horizontal shift, 0.5 % of its vertical one, is the worst): 4.4e-7
 #: at 1024 nodes and 4 intervals, 1.5e-7 at 2048 and 4, 6.1e-8 at 4096 and 8 (the per-instant
-#: solution's own scatter, from the solver's tolerance, is 4e-8 on that column).
-SMOOTH_MARGIN = 8
+#: solution's own scatter, from the solver's tolerance, is 4e-8 on that column). At 4096 nodes,
+#: over the four scenes of tests/test_streaming.py (the worst, 2.4e-7, is the preloaded scene's
+#: horizontal shift, the solver's scatter whatever the margin): 2.4e-7 at 8 and 6 intervals and
+#: at 5 (its instants solved one by one: 0.54 % against 0.83 % at 8), 3.6e-7 at 4, 1.7e-6 at 2.
+SMOOTH_MARGIN = 5
 #: Steady instants from which the map pays: its grid costs about as many instants solved.
 MIN_INSTANTS = 2 * (PERIOD_NODES + 2 * SMOOTH_MARGIN)
 #: Columns formed at each instant from the others rather than interpolated.
@@ -318,7 +321,7 @@ def _map_instants(
                 out_signal[c, i] = w0 * g0 + w1 * g1 + w2 * g2 + w3 * g3
         # ball k is slot (k + shift) mod z: the slots from ``shift`` on, then those before it
         # (ball columns are finite or NaN, a potential out of the circuit: no inf)
-        cut = int(m % z) * n_col
+        cut = int(m) % z * n_col  # whole ball passes since the reference, in integers
         row = out[i]
         _weigh(row[: width - cut], grid, a, cut, width, w0, w1, w2, w3)
         _weigh(row[width - cut :], grid, a, 0, cut, w0, w1, w2, w3)
