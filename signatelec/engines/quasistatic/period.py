@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from signatelec.config.scene import Scene
+from signatelec.engines.quasistatic.buffers import table_arrays
 from signatelec.engines.results import PHASES
 from signatelec.physics.electrical import max_current_density_a_m2
 from signatelec.physics.load_distribution import epsilon_from_shift
@@ -172,12 +173,12 @@ class PeriodMap:
         theta = self.cage_angle_rad(self.scene, t)
         n_rows = n_rec * z
         # [row, column]: an instant's values are written in one stretch (the tables take the
-        # columns as strided views)
-        out_ball = np.empty((n_rows, len(self.ball_names)))
+        # columns as strided views); the ball table's memory is that of the last one freed
+        out_ball, time_rows, angle, ball_rows = table_arrays(
+            [((n_rows, len(self.ball_names)), float), ((n_rows,), float), ((n_rows,), float)]
+            + [((n_rows,), np.int32)]
+        )
         out_signal = np.empty((len(self.signal_names), n_rec))
-        time_rows = np.empty(n_rows)
-        ball_rows = np.empty(n_rows, np.int32)
-        angle = np.empty(n_rows)
         loaded = np.empty(n_rec, np.int32)
         largest = np.empty((2, n_rec))
         node = np.empty(n_rec, np.int64)
