@@ -195,9 +195,13 @@ def test_a_mapped_table_reuses_only_the_memory_of_tables_that_are_gone(monkeypat
     assert not np.shares_memory(column, second.balls["x_m"].to_numpy())
     del column
     size = buffers.kept_bytes()
-    # its rows: time, angle and the 8 interpolated columns in double, the ball in int32; the
-    # constant columns (speeds, tangential forces) are one value each, not stored per row
-    assert len(fresh) * (10 * 8 + 4) <= size < len(fresh) * (10 * 8 + 4) + 4 * 64
+    # per ball row: time, angle and the 8 interpolated columns in double, the ball in int32 (the
+    # constant columns, speeds and tangential forces, are one value each); per instant: the
+    # ring's shift (x, y, |s|), the resistance, the largest load and density, the grid node in
+    # 8 bytes, the loaded balls in 4, the phase in 1
+    n_instants = len(fresh) // scene.bearing.n_balls
+    least = len(fresh) * (10 * 8 + 4) + n_instants * (7 * 8 + 4 + 1)
+    assert least <= size < least + 10 * 64
     third = simulate(scene)  # over the first table's memory
     assert buffers.kept_bytes() == 0
     pd.testing.assert_frame_equal(third.balls, fresh, check_exact=True)

@@ -173,15 +173,15 @@ class PeriodMap:
         theta = self.cage_angle_rad(self.scene, t)
         n_rows = n_rec * z
         # [row, column]: an instant's values are written in one stretch (the tables take the
-        # columns as strided views); the ball table's memory is that of the last one freed
-        out_ball, time_rows, angle, ball_rows = table_arrays(
-            [((n_rows, len(self.ball_names)), float), ((n_rows,), float), ((n_rows,), float)]
-            + [((n_rows,), np.int32)]
+        # columns as strided views); the tables' memory is that of the last ones freed
+        out_ball, time_rows, angle, out_signal, largest, delta_r, node, ball_rows, loaded, phase = (
+            table_arrays(
+                [((n_rows, len(self.ball_names)), float), ((n_rows,), float), ((n_rows,), float)]
+                + [((len(self.signal_names), n_rec), float), ((2, n_rec), float)]
+                + [((n_rec,), float), ((n_rec,), np.int64), ((n_rows,), np.int32)]
+                + [((n_rec,), np.int32), ((n_rec,), np.int8)]
+            )
         )
-        out_signal = np.empty((len(self.signal_names), n_rec))
-        loaded = np.empty(n_rec, np.int32)
-        largest = np.empty((2, n_rec))
-        node = np.empty(n_rec, np.int64)
         _map_instants(
             theta,
             t,
@@ -202,7 +202,9 @@ class PeriodMap:
             largest,
             node,
         )
-        return out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node
+        phase[:] = PHASES.index("steady")  # delta_r: written by columns()
+        tables = out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, delta_r, phase
+        return *tables, node
 
     def columns(self, t) -> tuple[dict, dict, dict]:
         """The tables' columns at the instants ``t`` (as
@@ -211,7 +213,9 @@ class PeriodMap:
         t = np.ascontiguousarray(t, dtype=float)
         z = self.scene.bearing.n_balls
         n_rec = t.size
-        out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node = self._map(t)
+        out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, delta_r, phase, node = (
+            self._map(t)
+        )
         mapped_b = dict(zip(self.ball_names, out_ball.T, strict=True))
         mapped_s = dict(zip(self.signal_names, out_signal, strict=True))
         derived = {
@@ -236,9 +240,9 @@ class PeriodMap:
             if name == "time_s":
                 signals[name] = t
             elif name == "phase":
-                signals[name] = np.full(n_rec, PHASES.index("steady"), np.int8)
+                signals[name] = phase
             elif name == "delta_r_m":
-                signals[name] = np.hypot(signals["inner_x_m"], signals["inner_y_m"])
+                signals[name] = np.hypot(signals["inner_x_m"], signals["inner_y_m"], out=delta_r)
             elif name == "epsilon":
                 clearance = self.scene.operating.clearance_m
                 signals[name] = epsilon_from_shift(signals["delta_r_m"], clearance)
@@ -328,8 +332,14 @@ def _map_instants(
         _weigh(row[width - cut :], grid, a, 0, cut, w0, w1, w2, w3)
         n_loaded = 0
         largest_load = 0.0
-        # ball 0's angle in (-pi, pi], then each next ball one pitch on, wrapped once
-        first = math.pi - (math.pi - theta[i]) % two_pi
+        # ball 0's angle in (-pi, pi], then each next ball one pitch on, wrapped once (the
+        # remainder by a division: a floating-point modulo of a large angle costs more)
+        turns = math.floor((math.pi - theta[i]) / two_pi)
+        first = theta[i] + turns * two_pi
+        if first <= -math.pi:
+            first += two_pi
+        elif first > math.pi:
+            first -= two_pi
         for k in range(z):
             r = i * z + k
             time_rows[r] = t[i]
