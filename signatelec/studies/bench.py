@@ -123,9 +123,10 @@ def tier_marginal_cost(repeat: int = 7, sample_rate_hz: float = 20000.0) -> dict
     scene, in this process, interleaved: each engine run at two durations (the DEM 5 and 25 ms of
     steady running, the tier 2 and 10 s, whose instants map onto one ball-pass period), the CPU
     difference over the duration difference; the best of ``repeat`` pairs, as for the cases (the
-    others carry another process's load), and the median. User and system CPU are given apart:
-    the tier's cost is mostly the memory of its tables (~1.2 kB per instant), whose first touch
-    (page faults, system time) a loaded host makes several times dearer. A first run of each
+    others carry another process's load), and the median. User and system CPU are given apart
+    (the kernel samples ticks to tell them: noisy over runs of 10-30 ms). The tier writes
+    ~1.2 kB of tables per instant, over the memory of the tables freed before it
+    (:mod:`signatelec.engines.quasistatic.buffers`): fresh pages cost it more. A first run of each
     engine at each duration, outside the figures, compiles or loads the kernels and grows the
     process to the long runs' memory once (the host's first 250 MB for the tier's 10 s: about
     0.4 s of system time here, once per process, not per simulated second)."""

@@ -1,11 +1,11 @@
-"""Memory for the quasi-static tier's ball tables, reused from one run (or streamed block) to the
-next once the tables that held it are gone.
+"""Memory for the quasi-static tier's mapped tables, reused from one run (or streamed block) to
+the next once the tables that held it are gone.
 
-The mapped tier writes about 1.1 kB of ball rows per recorded instant (23 MB per simulated
-second at 20 kHz) and computes them in less time than the operating system takes to hand over
-that much fresh memory: each new page is zeroed by the kernel first (system time), and on a
+The mapped tier writes about 1.2 kB of table rows per recorded instant (23 MB per simulated
+second at 20 kHz), and fresh memory for them cost about as much as computing them: each new page
+is zeroed by the kernel first (system time, about 1.5 ms per simulated second here), and on a
 host whose memory is fragmented a huge page may first have to be compacted, which made single
-runs cost 2-8 times their median. :func:`table_arrays` lends the arrays of one table out of a
+runs cost 2-10 times their median. :func:`table_arrays` lends the arrays of one table out of a
 single buffer; when the last array on it is freed (the result or the streamed block dropped),
 the buffer goes back to a pool, and the next table of the same size is written over it, with no
 page to zero. The pool keeps at most :data:`REUSE_BYTES` of free buffers (the oldest are freed

@@ -23,7 +23,8 @@ columns that are a maximum or a count over the balls (largest ball load, loaded 
 current density) are formed at each instant from the interpolated ball columns, not
 interpolated themselves (a maximum has a kink where the largest ball changes). The tables agree
 with the per-instant solution to 1e-6 of each column's largest value
-(tests/test_streaming.py).
+(tests/test_streaming.py). The tables' arrays are carved from memory freed by earlier tables
+(:mod:`signatelec.engines.quasistatic.buffers`): written over, not faulted in and zeroed anew.
 """
 
 from __future__ import annotations
