@@ -122,8 +122,9 @@ def test_bench_refuses_a_directory_before_running(tmp_path, capsys):
 @pytest.mark.slow
 def test_bench_start_up_and_tiers(tmp_path, monkeypatch):
     """The start-up and tier rows of the bench: whole-process figures of a warm `simulate`, and
-    the tier's marginal cost far below the DEM's (measured 750-900x on a loaded 2-core host;
-    100x is the floor the tier had to clear before it mapped instants onto one period)."""
+    the tier's marginal cost far below the DEM's (medians measured 1250-1411x on a shared
+    2-core host; 100x is the floor the tier had to clear before it mapped instants onto one
+    period)."""
     from signatelec.studies import bench
 
     startup = bench.startup_cost(repeat=1, out_dir=str(tmp_path))

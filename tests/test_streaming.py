@@ -25,7 +25,7 @@ from signatelec.config.scene import Scene
 from signatelec.engines import stream as stream_module
 from signatelec.engines.budget import run_budget
 from signatelec.engines.dem import run as dem_run
-from signatelec.engines.quasistatic import period, tier
+from signatelec.engines.quasistatic import buffers, period, tier
 from signatelec.engines.simulate import simulate
 from signatelec.physics.electrical import CurrentDensityWarning
 
@@ -175,6 +175,43 @@ def test_a_short_or_streamed_tier_run(tmp_path, monkeypatch):
         got, want = read(tmp_path / "run", name), getattr(memory, name)
         # instant by instant: each block restarts the solver (residual 1e-10 of the load)
         pd.testing.assert_frame_equal(got, want, check_exact=False, rtol=1e-8, atol=1e-14)
+
+
+def test_a_mapped_table_reuses_only_the_memory_of_tables_that_are_gone(monkeypatch):
+    """The ball table's memory comes back for the next table of its size once every array on it
+    is freed, never while one lives; a table written over reused memory is the fresh one."""
+    monkeypatch.setattr(buffers, "REUSE_BYTES", buffers.REUSE_BYTES)
+    buffers.release()
+    scene = Scene().with_overrides(fidelity="quasistatic")
+    rate = scene.numerics.sample_rate_hz
+    scene = scene.with_overrides(duration_s=scene.setup_time_s + 1.05 * period.MIN_INSTANTS / rate)
+    first = simulate(scene)
+    fresh = first.balls.copy(deep=True)
+    assert buffers.kept_bytes() == 0
+    column = first.balls["current_a"].to_numpy()  # outlives its table
+    del first
+    assert buffers.kept_bytes() == 0
+    second = simulate(scene)
+    assert not np.shares_memory(column, second.balls["x_m"].to_numpy())
+    del column
+    size = buffers.kept_bytes()
+    # per ball row: time, angle and the 8 interpolated columns in double, the ball in int32 (the
+    # constant columns, speeds and tangential forces, are one value each); per instant: the
+    # ring's shift (x, y, |s|), the resistance, the largest load and density, the grid node in
+    # 8 bytes, the loaded balls in 4, the phase in 1
+    n_instants = len(fresh) // scene.bearing.n_balls
+    least = len(fresh) * (10 * 8 + 4) + n_instants * (7 * 8 + 4 + 1)
+    assert least <= size < least + 10 * 64
+    third = simulate(scene)  # over the first table's memory
+    assert buffers.kept_bytes() == 0
+    pd.testing.assert_frame_equal(third.balls, fresh, check_exact=True)
+    pd.testing.assert_frame_equal(second.balls, fresh, check_exact=True)
+    del second, third
+    assert buffers.kept_bytes() == 2 * size
+    monkeypatch.setattr(buffers, "REUSE_BYTES", size)  # the oldest beyond the bound is freed
+    buffers._give_back(np.empty(size, np.uint8))
+    assert buffers.kept_bytes() == size
+    assert buffers.release() == size and buffers.kept_bytes() == 0
 
 
 # --- start-up -------------------------------------------------------------------------------------

@@ -123,10 +123,13 @@ def tier_marginal_cost(repeat: int = 7, sample_rate_hz: float = 20000.0) -> dict
     scene, in this process, interleaved: each engine run at two durations (the DEM 5 and 25 ms of
     steady running, the tier 2 and 10 s, whose instants map onto one ball-pass period), the CPU
     difference over the duration difference; the best of ``repeat`` pairs, as for the cases (the
-    others carry another process's load), and the median. User and system CPU are given apart:
-    the tier's cost is mostly the memory of its tables (~1.5 kB per instant), whose first touch
-    (page faults, system time) a loaded host makes several times dearer. Kernels are compiled or
-    loaded by a first run of each, outside the figures."""
+    others carry another process's load), and the median. User and system CPU are given apart
+    (the kernel samples ticks to tell them: noisy over runs of 10-30 ms). The tier writes
+    ~1.2 kB of tables per instant, over the memory of the tables freed before it
+    (:mod:`signatelec.engines.quasistatic.buffers`): fresh pages cost it more. A first run of each
+    engine at each duration, outside the figures, compiles or loads the kernels and grows the
+    process to the long runs' memory once (the host's first 250 MB for the tier's 10 s: about
+    0.4 s of system time here, once per process, not per simulated second)."""
     import resource
 
     from signatelec.engines.simulate import simulate
@@ -146,8 +149,9 @@ def tier_marginal_cost(repeat: int = 7, sample_rate_hz: float = 20000.0) -> dict
         after = resource.getrusage(resource.RUSAGE_SELF)
         return after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime
 
-    for scene, short, _ in spans.values():
+    for scene, short, long in spans.values():
         cpu_s(scene, short)  # compile or load, outside the figures
+        cpu_s(scene, long)  # the process's first growth to the long run's memory, likewise
     total: dict[str, list[float]] = {name: [] for name in spans}
     user: dict[str, list[float]] = {name: [] for name in spans}
     for _ in range(max(1, repeat)):

@@ -17,13 +17,14 @@ PERIOD_NODES) = 1.2e-4 rad for the seed's bearing). Where a contact
 opens or closes within the stencil the columns are not smooth (Hertz: force ~ delta^{3/2}, the
 contact radius and a ball's conductance ~ delta^{1/2}, Hamrock-Brewe and seed eq. 16), so the
 instants within :data:`SMOOTH_MARGIN` grid intervals of a change of the contact pattern are
-solved one by one, as the per-instant tier does (0.8 % of them for the seed's scene), each
+solved one by one, as the per-instant tier does (0.5 % of them for the seed's scene), each
 Newton started from the instant's interpolated ring shift. The
 columns that are a maximum or a count over the balls (largest ball load, loaded balls, largest
 current density) are formed at each instant from the interpolated ball columns, not
 interpolated themselves (a maximum has a kink where the largest ball changes). The tables agree
 with the per-instant solution to 1e-6 of each column's largest value
-(tests/test_streaming.py).
+(tests/test_streaming.py). The tables' arrays are carved from memory freed by earlier tables
+(:mod:`signatelec.engines.quasistatic.buffers`): written over, not faulted in and zeroed anew.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import numpy as np
 from numba import njit
 
 from signatelec.config.scene import Scene
+from signatelec.engines.quasistatic.buffers import table_arrays
 from signatelec.engines.results import PHASES
 from signatelec.physics.electrical import max_current_density_a_m2
 from signatelec.physics.load_distribution import epsilon_from_shift
@@ -45,8 +47,11 @@ PERIOD_NODES = 4096
 #: one. Measured on the seed's scene (largest error over the columns, relative to each column's
 #: largest value; the ring's horizontal shift, 0.5 % of its vertical one, is the worst): 4.4e-7
 #: at 1024 nodes and 4 intervals, 1.5e-7 at 2048 and 4, 6.1e-8 at 4096 and 8 (the per-instant
-#: solution's own scatter, from the solver's tolerance, is 4e-8 on that column).
-SMOOTH_MARGIN = 8
+#: solution's own scatter, from the solver's tolerance, is 4e-8 on that column). At 4096 nodes,
+#: over the four scenes of tests/test_streaming.py (the worst, 2.4e-7, is the preloaded scene's
+#: horizontal shift, the solver's scatter whatever the margin): 2.4e-7 at 8 and 6 intervals and
+#: at 5 (its instants solved one by one: 0.54 % against 0.83 % at 8), 3.6e-7 at 4, 1.7e-6 at 2.
+SMOOTH_MARGIN = 5
 #: Steady instants from which the map pays: its grid costs about as many instants solved.
 MIN_INSTANTS = 2 * (PERIOD_NODES + 2 * SMOOTH_MARGIN)
 #: Columns formed at each instant from the others rather than interpolated.
@@ -115,17 +120,19 @@ class PeriodMap:
             else:
                 mapped_s.append((name, np.asarray(values)))
         inner = balls["inner_force_n"].reshape(shape)
+        # each ball's largest current density (the instant's is their maximum, electrical.py),
+        # read but not written out: [node, slot], no slot without the electrical network
+        self.grid_density = np.zeros((fraction.size, 0))
         if "current_a" in balls:
-            # each ball's largest density; the instant's is their maximum (electrical.py)
             current = balls["current_a"].reshape(-1, 1)
-            density = np.maximum(
+            self.grid_density = np.maximum(
                 max_current_density_a_m2(current, balls["inner_area_m2"].reshape(-1, 1)),
                 max_current_density_a_m2(current, balls["outer_area_m2"].reshape(-1, 1)),
             ).reshape(shape)
-            mapped_b.append(("_density", density))
         self.ball_names = [name for name, _ in mapped_b]
         self.signal_names = [name for name, _ in mapped_s]
-        # [node, slot, column]: an instant reads two nodes' values in one contiguous stretch
+        # [node, slot, column]: an instant reads each node's values in one contiguous stretch,
+        # the very order of its rows in the output
         self.grid_ball = np.ascontiguousarray(np.stack([v for _, v in mapped_b], axis=-1))
         self.grid_signal = np.zeros((fraction.size, len(mapped_s)))
         for c, (_, values) in enumerate(mapped_s):
@@ -137,6 +144,7 @@ class PeriodMap:
                 inner > 0.0,
                 balls["outer_force_n"].reshape(shape) > 0.0,
                 np.isnan(self.grid_ball).reshape(fraction.size, -1),
+                np.isnan(self.grid_density),
                 ~np.isfinite(self.grid_signal),
             ],
             axis=1,
@@ -166,15 +174,15 @@ class PeriodMap:
         theta = self.cage_angle_rad(self.scene, t)
         n_rows = n_rec * z
         # [row, column]: an instant's values are written in one stretch (the tables take the
-        # columns as strided views); each ball's largest current density is not kept
-        out_ball = np.empty((n_rows, len(self.ball_names) - ("_density" in self.ball_names)))
-        out_signal = np.empty((len(self.signal_names), n_rec))
-        time_rows = np.empty(n_rows)
-        ball_rows = np.empty(n_rows, np.int32)
-        angle = np.empty(n_rows)
-        loaded = np.empty(n_rec, np.int32)
-        largest = np.zeros((2, n_rec))
-        node = np.empty(n_rec, np.int64)
+        # columns as strided views); the tables' memory is that of the last ones freed
+        out_ball, time_rows, angle, out_signal, largest, delta_r, node, ball_rows, loaded, phase = (
+            table_arrays(
+                [((n_rows, len(self.ball_names)), float), ((n_rows,), float), ((n_rows,), float)]
+                + [((len(self.signal_names), n_rec), float), ((2, n_rec), float)]
+                + [((n_rec,), float), ((n_rec,), np.int64), ((n_rows,), np.int32)]
+                + [((n_rec,), np.int32), ((n_rec,), np.int8)]
+            )
+        )
         _map_instants(
             theta,
             t,
@@ -183,9 +191,9 @@ class PeriodMap:
             PERIOD_NODES,
             SMOOTH_MARGIN,
             self.grid_ball,
+            self.grid_density,
             self.grid_signal,
             self.ball_names.index("inner_force_n"),
-            self.ball_names.index("_density") if "_density" in self.ball_names else -1,
             out_ball,
             out_signal,
             time_rows,
@@ -195,7 +203,9 @@ class PeriodMap:
             largest,
             node,
         )
-        return out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node
+        phase[:] = PHASES.index("steady")  # delta_r: written by columns()
+        tables = out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, delta_r, phase
+        return *tables, node
 
     def columns(self, t) -> tuple[dict, dict, dict]:
         """The tables' columns at the instants ``t`` (as
@@ -204,8 +214,10 @@ class PeriodMap:
         t = np.ascontiguousarray(t, dtype=float)
         z = self.scene.bearing.n_balls
         n_rec = t.size
-        out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node = self._map(t)
-        mapped_b = dict(zip(self.ball_names, out_ball.T, strict=False))  # not _density
+        out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, delta_r, phase, node = (
+            self._map(t)
+        )
+        mapped_b = dict(zip(self.ball_names, out_ball.T, strict=True))
         mapped_s = dict(zip(self.signal_names, out_signal, strict=True))
         derived = {
             "loaded_balls": loaded,
@@ -229,9 +241,9 @@ class PeriodMap:
             if name == "time_s":
                 signals[name] = t
             elif name == "phase":
-                signals[name] = np.full(n_rec, PHASES.index("steady"), np.int8)
+                signals[name] = phase
             elif name == "delta_r_m":
-                signals[name] = np.hypot(signals["inner_x_m"], signals["inner_y_m"])
+                signals[name] = np.hypot(signals["inner_x_m"], signals["inner_y_m"], out=delta_r)
             elif name == "epsilon":
                 clearance = self.scene.operating.clearance_m
                 signals[name] = epsilon_from_shift(signals["delta_r_m"], clearance)
@@ -278,16 +290,19 @@ def _full(n: int, value) -> np.ndarray:
 
 @njit(cache=True, error_model="numpy")
 def _map_instants(
-    theta, t, theta_ref, period, n, margin, grid_ball, grid_signal, inner_col, density_col,
+    theta, t, theta_ref, period, n, margin, grid_ball, grid_density, grid_signal, inner_col,
     out_ball, out_signal, time_rows, ball_rows, angle, loaded, largest, node,
 ):  # fmt: skip
     """Interpolate the grid at each instant of cage angle ``theta`` (see PeriodMap) into
     ``out_ball`` [row, column] and ``out_signal`` [column, instant], with each row's time, ball
-    and angle; from the ball columns ``inner_col`` (inner force) and ``density_col`` (each
-    ball's largest current density, the grid's last column, not written out; -1: none), the
-    loaded balls and the largest of each over the balls."""
-    z = grid_ball.shape[1]
-    n_out = out_ball.shape[1]
+    and angle; the loaded balls and the largest inner force over the balls (from the ball column
+    ``inner_col``) and the largest of each ball's current density (``grid_density``, read, not
+    written out; no slot: none)."""
+    z, n_col = grid_ball.shape[1], grid_ball.shape[2]
+    width = z * n_col
+    # an instant's rows are one stretch of the output, its slots one stretch of each node
+    grid = grid_ball.reshape((grid_ball.shape[0], width))
+    out = out_ball.reshape((theta.shape[0], width))
     two_pi = 2.0 * math.pi
     step = two_pi / z
     for i in range(theta.shape[0]):
@@ -310,40 +325,51 @@ def _map_instants(
                 out_signal[c, i] = g1
             else:
                 out_signal[c, i] = w0 * g0 + w1 * g1 + w2 * g2 + w3 * g3
-        shift = int(m % z)
+        # ball k is slot (k + shift) mod z: the slots from ``shift`` on, then those before it
+        # (ball columns are finite or NaN, a potential out of the circuit: no inf)
+        cut = int(m) % z * n_col  # whole ball passes since the reference, in integers
+        row = out[i]
+        _weigh(row[: width - cut], grid, a, cut, width, w0, w1, w2, w3)
+        _weigh(row[width - cut :], grid, a, 0, cut, w0, w1, w2, w3)
         n_loaded = 0
         largest_load = 0.0
-        largest_density = 0.0
-        # ball 0's angle in (-pi, pi], then each next ball one pitch on, wrapped once
-        first = math.pi - (math.pi - theta[i]) % two_pi
+        # ball 0's angle in (-pi, pi], then each next ball one pitch on, wrapped once (the
+        # remainder by a division: a floating-point modulo of a large angle costs more)
+        turns = math.floor((math.pi - theta[i]) / two_pi)
+        first = theta[i] + turns * two_pi
+        if first <= -math.pi:
+            first += two_pi
+        elif first > math.pi:
+            first -= two_pi
         for k in range(z):
-            s = k + shift
-            if s >= z:
-                s -= z
-            row = i * z + k
-            time_rows[row] = t[i]
-            ball_rows[row] = k
+            r = i * z + k
+            time_rows[r] = t[i]
+            ball_rows[r] = k
             psi = first + step * k
-            angle[row] = psi - two_pi if psi > math.pi else psi
-            # ball columns are finite or NaN (a potential out of the circuit): no inf
-            for c in range(n_out):
-                out_ball[row, c] = (
-                    w0 * grid_ball[a, s, c]
-                    + w1 * grid_ball[a + 1, s, c]
-                    + w2 * grid_ball[a + 2, s, c]
-                    + w3 * grid_ball[a + 3, s, c]
-                )
-            load = out_ball[row, inner_col]
+            angle[r] = psi - two_pi if psi > math.pi else psi
+            load = row[k * n_col + inner_col]
             n_loaded += load > 0.0
             largest_load = max(largest_load, load)
-            if density_col >= 0:
-                density = (
-                    w0 * grid_ball[a, s, density_col]
-                    + w1 * grid_ball[a + 1, s, density_col]
-                    + w2 * grid_ball[a + 2, s, density_col]
-                    + w3 * grid_ball[a + 3, s, density_col]
-                )
-                largest_density = max(largest_density, density)
+        largest_density = 0.0
+        for s in range(grid_density.shape[1]):
+            density = (
+                w0 * grid_density[a, s]
+                + w1 * grid_density[a + 1, s]
+                + w2 * grid_density[a + 2, s]
+                + w3 * grid_density[a + 3, s]
+            )
+            largest_density = max(largest_density, density)
         loaded[i] = n_loaded
         largest[0, i] = largest_load
         largest[1, i] = largest_density
+
+
+@njit(inline="always")
+def _weigh(out, grid, a, start, stop, w0, w1, w2, w3):
+    """``out`` = the cubic's weights on ``grid``'s nodes a .. a + 3 over the stretch ``start`` ..
+    ``stop`` of each, element by element: one loop whose indices numba knows are not negative
+    (no wrap-around test), which the compiler vectorises."""
+    g0, g1 = grid[a, start:stop], grid[a + 1, start:stop]
+    g2, g3 = grid[a + 2, start:stop], grid[a + 3, start:stop]
+    for q in range(out.shape[0]):
+        out[q] = w0 * g0[q] + w1 * g1[q] + w2 * g2[q] + w3 * g3[q]
