@@ -18,7 +18,7 @@ import numpy as np
 
 from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.dem.build import get_kernel, prepare
-from signatelec.engines.dem.records import OK, PARAM_ROWS, Recording
+from signatelec.engines.dem.records import OK, PARAM_ROWS, REC_ROTATION, Recording
 from signatelec.engines.dem.run import (
     _divergence_message,
     checked_limit,
@@ -32,15 +32,7 @@ from signatelec.engines.results import DivergenceError, SimulationResult
 #: Scenes per lane group: 8 float64 lanes fill one AVX-512 register.
 LANES = 8
 #: What the ensemble kernel does not carry (the single-scene kernel does), by kernel flag.
-NOT_CARRIED = {
-    "CAGE_RIGID": 'effects.cage = "rigid"',
-    "DEFECTS_OUTER": "a defect on the outer race",
-    "DEFECTS_INNER": "a defect on the inner race",
-    "DEFECTS_BALL": "a defect on a ball",
-    "UNBALANCE": "an unbalance",
-    "LOAD_TABLE": "a load table",
-    "OUT_OF_ROUND": "an out-of-round outer race",
-}
+NOT_CARRIED = {"CAGE_RIGID": 'effects.cage = "rigid"'}
 
 
 def refusal(spec: KernelSpec) -> str | None:
@@ -75,8 +67,9 @@ def _recording(kern, rec: np.ndarray, lane: int) -> Recording:
     n, z, nb = rec.shape[0], kern.BALLS, kern.NB
     r = rec.reshape(n, kern.REC_ROWS, kern.LANES)[:, :, lane]
     motion = r[:, kern.REC_POS : kern.REC_SPIN]
-    fcon = np.zeros((n, z, 7))  # column 6, the ball's rotation, is tracked with ball defects only
+    fcon = np.zeros((n, z, 7))
     fcon[:, :, :6] = r[:, kern.REC_FCON : kern.REC_SCHED].reshape(n, z, 6)
+    fcon[:, :, REC_ROTATION] = r[:, kern.REC_ROT : kern.REC_ROT + z]  # 0 without ball defects
     return Recording(
         time_s=r[:, kern.REC_TIME],
         pos=motion[:, : 2 * nb].reshape(n, nb, 2),
