@@ -18,6 +18,7 @@ import pytest
 from signatelec.config.scene import Scene, SceneError
 from signatelec.data import design_traces, spec_from_dict
 from signatelec.data.runner import batched, run_trace, run_traces
+from signatelec.engines.dem import batch as batch_module
 from signatelec.engines.dem.batch import simulate_batch
 from signatelec.engines.dem.run import simulate_dem
 from signatelec.engines.dem.spec import KernelSpec
@@ -35,7 +36,10 @@ def _scenes(horizon_s=HORIZON_S, **changes) -> list[Scene]:
     return [
         base,
         base.with_overrides(radial_load_n=9000.0, clearance_m=10e-6, initial_ball_angle_rad=0.1),
-        base.with_overrides(radial_load_n=3000.0, clearance_m=-5e-6, omega_rad_s=400.0),
+        # another record interval: a lane of its own in the same call
+        base.with_overrides(
+            radial_load_n=3000.0, clearance_m=-5e-6, omega_rad_s=400.0, sample_rate_hz=10000.0
+        ),
     ]
 
 
@@ -83,9 +87,14 @@ def assert_same(single: SimulationResult, batch: SimulationResult) -> float:
     ],
     ids=["seed", "other-models"],
 )
-def test_batch_equals_single_scene_kernel(changes):
+def test_batch_equals_single_scene_kernel(changes, monkeypatch):
     scenes = _scenes(**changes)
+    assert scenes[2].record_every != scenes[0].record_every
+    groups = []
+    run_group = batch_module._run_group
+    monkeypatch.setattr(batch_module, "_run_group", lambda *a: groups.append(a) or run_group(*a))
     batch = simulate_batch(scenes, lanes=4)  # one lane padded
+    assert len(groups) == 1
     for scene, result in zip(scenes, batch, strict=True):
         assert result.timings["kernel"].endswith("x4")
         assert_same(simulate_dem(scene), result)

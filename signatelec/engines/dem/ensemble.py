@@ -92,7 +92,7 @@ _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 (
     NB, N2, RING, POS, VEL, ACC, ACC_NEW, SPIN, SPIN_ACC, SPIN_OLD, XI, ROT, ROOTS, FCON, SCHED,
     ENERGY_ROW, STATUS, FLAG, RATE, TIME, PHI, RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC,
-    INV_MB, INV_MC, DTS, ROWS,
+    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, ROWS,
 ) = work_rows(BALLS)  # fmt: skip
 REC_TIME, REC_POS, REC_SPIN, REC_FCON, REC_SCHED, REC_ENERGY, REC_ROT, REC_ROWS = record_rows(BALLS)
 #: Geometry with defects or lobes: a contact's overlap may be <= 0 (a ball over a spall).
@@ -481,34 +481,32 @@ def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W, last):
 
 
 @njit(error_model="numpy", _nrt=False)
-def record(W, rec, i, step):
-    """Copy every lane's state into recorded instant ``i`` (rows REC_*) after ``step``."""
-    for lane in range(LANES):
-        rec[i, REC_TIME * LANES + lane] = (step + 1) * W[P_DT * LANES + lane]
-    copy_rows(W, POS, rec, i, REC_POS, 2 * N2, LANES)  # positions then velocities
-    copy_rows(W, SPIN, rec, i, REC_SPIN, BALLS, LANES)
-    copy_rows(W, FCON, rec, i, REC_FCON, 6 * BALLS, LANES)
-    copy_rows(W, SCHED, rec, i, REC_SCHED, 4, LANES)
+def record(W, rec, i, lane, step):
+    """Copy lane ``lane``'s state into its recorded instant ``i`` (rows REC_*) after ``step``."""
+    rec[i, REC_TIME * LANES + lane] = (step + 1) * W[P_DT * LANES + lane]
+    copy_rows(W, POS, rec, i, REC_POS, 2 * N2, lane, LANES)  # positions then velocities
+    copy_rows(W, SPIN, rec, i, REC_SPIN, BALLS, lane, LANES)
+    copy_rows(W, FCON, rec, i, REC_FCON, 6 * BALLS, lane, LANES)
+    copy_rows(W, SCHED, rec, i, REC_SCHED, 4, lane, LANES)
     if DEFECTS_BALL:
-        copy_rows(W, ROT, rec, i, REC_ROT, BALLS, LANES)
+        copy_rows(W, ROT, rec, i, REC_ROT, BALLS, lane, LANES)
     if ENERGY:
-        copy_rows(W, ENERGY_ROW, rec, i, REC_ENERGY, 3, LANES)
-        for lane in range(LANES):
-            e = kinetic_energy(W, lane, LANES, BALLS, VEL, SPIN)
-            rec[i, (REC_ENERGY + 3) * LANES + lane] = e
+        copy_rows(W, ENERGY_ROW, rec, i, REC_ENERGY, 3, lane, LANES)
+        e = kinetic_energy(W, lane, LANES, BALLS, VEL, SPIN)
+        rec[i, (REC_ENERGY + 3) * LANES + lane] = e
 
 
 # No fastmath in the time loop (as kernel.run: the divergence check must see an overflow).
 @njit(cache=True, error_model="numpy", _nrt=False)
-def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
+def run(PR, W, rec, step0, n_steps):
     """Advance every lane of ``W`` by ``n_steps`` from step ``step0`` (:func:`.kernel.run`, lane
-    by lane); record into ``rec`` from index ``rec_index0`` every ``record_every`` steps.
+    by lane); each lane records into its column of ``rec`` every W[EVERY] steps of its own (its
+    record interval: lanes of other time steps or sample rates share a call), at its next free
+    index W[REC_INDEX].
 
-    Returns the next free record index. A lane that diverges keeps its first status (the lanes
-    are independent: its values reach no other lane) and runs on; the run stops when every
-    lane has diverged."""
-    rec_index = rec_index0
-    countdown = record_every - step0 % record_every
+    Returns the number of lanes still running. A lane that diverges keeps its first status (the
+    lanes are independent: its values reach no other lane) and runs on; the run stops when
+    every lane has diverged."""
     for i_step in range(n_steps):
         step = step0 + i_step
         # flat loops at constant offsets (dt from DTS): LLVM proves the rows apart, vectorises
@@ -561,15 +559,20 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
                     W[(STATUS + 2) * LANES + lane] = code // 8.0
                     W[(STATUS + 3) * LANES + lane] = code % 8.0
         if running == 0:
-            return rec_index
-        countdown -= 1
-        if countdown == 0:
-            countdown = record_every
-            check_finite(W, step, LANES, NB, POS, VEL, STATUS)
-            if rec_index < rec.shape[0]:
-                record(W, rec, rec_index, step)
-                rec_index += 1
-    return rec_index
+            return 0
+        due = 0
+        for lane in range(LANES):  # each lane's countdown to its next recorded step (a vector)
+            left = W[COUNTDOWN * LANES + lane] - 1.0
+            due += left == 0.0
+            W[COUNTDOWN * LANES + lane] = W[EVERY * LANES + lane] if left == 0.0 else left
+        for lane in range(LANES if due else 0):
+            if W[COUNTDOWN * LANES + lane] == W[EVERY * LANES + lane]:  # just reset: due
+                check_finite(W, step, lane, LANES, NB, POS, VEL, STATUS)
+                i = int(W[REC_INDEX * LANES + lane])
+                if i < rec.shape[0]:
+                    record(W, rec, i, lane, step)
+                    W[REC_INDEX * LANES + lane] = i + 1
+    return running
 
 
 @_entry
@@ -577,6 +580,9 @@ def start(PR, W):
     """Initial accelerations at t = 0 of every lane (needed by velocity Verlet)."""
     for r in range(N2 * LANES):  # each lane's dt, once per body coordinate (run's loops)
         W[DTS * LANES + r] = W[P_DT * LANES + r % LANES]
+    for lane in range(LANES):  # step 0: each lane's first record after EVERY steps
+        W[COUNTDOWN * LANES + lane] = W[EVERY * LANES + lane]
+        W[REC_INDEX * LANES + lane] = 0.0
     forces(-T_SHIFT, PR, W)
     for r in range(N2 * LANES):
         W[ACC * LANES + r] = W[ACC_NEW * LANES + r]

@@ -68,6 +68,9 @@ class WorkRows(NamedTuple):
     INV_MB: int  # reciprocal masses
     INV_MC: int
     DTS: int  # N2: each lane's dt, once per body coordinate (the update loops read it)
+    EVERY: int  # each lane's record interval, steps
+    COUNTDOWN: int  # steps to its next recorded one
+    REC_INDEX: int  # its next free recorded instant
     ROWS: int  # the total
 
 
@@ -80,6 +83,7 @@ def work_rows(balls: int) -> WorkRows:
         "ROOTS": 20 * balls, "FCON": 6 * balls, "SCHED": 4, "ENERGY_ROW": 4, "STATUS": 4,
         "FLAG": 1, "RATE": 1, "TIME": 1, "PHI": 1, "RING_FX": 1, "RING_FY": 1, "DRIVE": 1,
         "LOSS": 1, "WORK": 1, "ELASTIC": 1, "INV_MB": 1, "INV_MC": 1, "DTS": 2 * nb,
+        "EVERY": 1, "COUNTDOWN": 1, "REC_INDEX": 1,
     }  # fmt: skip
     rows = {"NB": nb, "N2": 2 * nb, "RING": 2 * balls}
     row = PARAM_ROWS["_total"]
@@ -113,10 +117,11 @@ def record_rows(balls: int) -> RecordRows:
 
 
 @njit(error_model="numpy", _nrt=False)
-def copy_rows(W, w_row, rec, i, rec_row, n_rows, lanes):
-    """Rows ``w_row`` .. ``w_row + n_rows`` of W into recorded instant ``i`` from ``rec_row``."""
-    for r in range(n_rows * lanes):
-        rec[i, rec_row * lanes + r] = W[w_row * lanes + r]
+def copy_rows(W, w_row, rec, i, rec_row, n_rows, lane, lanes):
+    """Lane ``lane`` of rows ``w_row`` .. ``w_row + n_rows`` of W into its recorded instant
+    ``i`` from ``rec_row``."""
+    for r in range(n_rows):
+        rec[i, (rec_row + r) * lanes + lane] = W[(w_row + r) * lanes + lane]
 
 
 @njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
@@ -142,17 +147,17 @@ def kinetic_energy(W, lane, lanes, balls, vel_row, spin_row):
 
 # No fastmath: under its flags LLVM folds math.isfinite(x) to True.
 @njit(error_model="numpy", _nrt=False)
-def check_finite(W, step, lanes, nb, pos_row, vel_row, status_row):
-    """Flag (status NONFINITE) each lane, still OK, whose positions or velocities are not finite."""
-    for lane in range(lanes):
-        if W[status_row * lanes + lane] != OK:
-            continue
-        for b in range(nb):
-            x = W[(pos_row + 2 * b) * lanes + lane] + W[(pos_row + 2 * b + 1) * lanes + lane]
-            v = W[(vel_row + 2 * b) * lanes + lane] + W[(vel_row + 2 * b + 1) * lanes + lane]
-            if not math.isfinite(x + v):
-                W[status_row * lanes + lane] = NONFINITE
-                W[(status_row + 1) * lanes + lane] = step
-                W[(status_row + 2) * lanes + lane] = b
-                W[(status_row + 3) * lanes + lane] = -1
-                break
+def check_finite(W, step, lane, lanes, nb, pos_row, vel_row, status_row):
+    """Flag (status NONFINITE) lane ``lane``, if still OK and its positions or velocities are
+    not finite."""
+    if W[status_row * lanes + lane] != OK:
+        return
+    for b in range(nb):
+        x = W[(pos_row + 2 * b) * lanes + lane] + W[(pos_row + 2 * b + 1) * lanes + lane]
+        v = W[(vel_row + 2 * b) * lanes + lane] + W[(vel_row + 2 * b + 1) * lanes + lane]
+        if not math.isfinite(x + v):
+            W[status_row * lanes + lane] = NONFINITE
+            W[(status_row + 1) * lanes + lane] = step
+            W[(status_row + 2) * lanes + lane] = b
+            W[(status_row + 3) * lanes + lane] = -1
+            return
