@@ -92,7 +92,7 @@ _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 (
     NB, N2, RING, POS, VEL, ACC, ACC_NEW, SPIN, SPIN_ACC, SPIN_OLD, XI, ROT, ROOTS, FCON, SCHED,
     ENERGY_ROW, STATUS, FLAG, RATE, TIME, PHI, RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC,
-    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, ROWS,
+    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, ROWS,
 ) = work_rows(BALLS)  # fmt: skip
 REC_TIME, REC_POS, REC_SPIN, REC_FCON, REC_SCHED, REC_ENERGY, REC_ROT, REC_ROWS = record_rows(BALLS)
 #: Geometry with defects or lobes: a contact's overlap may be <= 0 (a ball over a spall).
@@ -272,6 +272,21 @@ def _ball_lanes(k, PR, W):
     vr = (VEL + 2 * RING) * LANES
     root = (ROOTS + 20 * k) * LANES
     fc = (FCON + 6 * k) * LANES
+    # The local surface first, in a loop of its own: scalar (its loop over the defects), it
+    # leaves the contacts' loop vector.
+    for lane in range(LANES if SURFACE else 0):
+        x = W[bx + lane]
+        y = W[bx + LANES + lane]
+        phi = W[PHI * LANES + lane]
+        rot = W[(ROT + k) * LANES + lane]
+        if DEFECTS_INNER or DEFECTS_BALL:
+            theta = math.atan2(x - W[ring + lane], -(y - W[ring + LANES + lane]))
+            W[SURF * LANES + lane] = contact_drop(INNER_SIDE, theta, phi, k, PR[lane], rot)
+        theta = math.atan2(x, -y)
+        if OUT_OF_ROUND:
+            W[(SURF + 1) * LANES + lane] = lobe_shift(W[TIME * LANES + lane], theta, PR[lane])
+        if DEFECTS_OUTER or DEFECTS_BALL:
+            W[(SURF + 2) * LANES + lane] = contact_drop(OUTER_SIDE, theta, phi, k, PR[lane], rot)
     for lane in range(LANES):
         dt = W[P_DT * LANES + lane]
         rb = W[P_RB * LANES + lane]
@@ -310,9 +325,7 @@ def _ball_lanes(k, PR, W):
         vclose = -(rvx * nx + rvy * ny)
         ov = reach - d2 * inv
         if DEFECTS_INNER or DEFECTS_BALL:  # the overlap with the local surface
-            theta = math.atan2(dx, -dy)
-            rot = W[(ROT + k) * LANES + lane]
-            ov -= contact_drop(INNER_SIDE, theta, W[PHI * LANES + lane], k, PR[lane], rot)
+            ov -= W[SURF * LANES + lane]
         fn, rd, qd, dloss, de = normal_lane(
             ov, vclose, 0, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_INNER + 1
         )
@@ -361,13 +374,10 @@ def _ball_lanes(k, PR, W):
                 work += -fcp * (vx * nx + vy * ny) * dt
         vclose = vx * nx + vy * ny - r_rate
         ov = r + rb - r_out
-        if DEFECTS_OUTER or DEFECTS_BALL or OUT_OF_ROUND:  # the local surface
-            theta = math.atan2(x, -y)
-            if OUT_OF_ROUND:
-                ov -= lobe_shift(W[TIME * LANES + lane], theta, PR[lane])
-            if DEFECTS_OUTER or DEFECTS_BALL:
-                rot = W[(ROT + k) * LANES + lane]
-                ov -= contact_drop(OUTER_SIDE, theta, W[PHI * LANES + lane], k, PR[lane], rot)
+        if OUT_OF_ROUND:  # the local surface
+            ov -= W[(SURF + 1) * LANES + lane]
+        if DEFECTS_OUTER or DEFECTS_BALL:
+            ov -= W[(SURF + 2) * LANES + lane]
         fn, rd, qd, dloss, de = normal_lane(
             ov, vclose, 1, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_OUTER + 1
         )

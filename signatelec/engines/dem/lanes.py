@@ -71,6 +71,7 @@ class WorkRows(NamedTuple):
     EVERY: int  # each lane's record interval, steps
     COUNTDOWN: int  # steps to its next recorded one
     REC_INDEX: int  # its next free recorded instant
+    SURF: int  # 3: under the ball of this contact loop, the inner drop, lobes, outer drop
     ROWS: int  # the total
 
 
@@ -83,7 +84,7 @@ def work_rows(balls: int) -> WorkRows:
         "ROOTS": 20 * balls, "FCON": 6 * balls, "SCHED": 4, "ENERGY_ROW": 4, "STATUS": 4,
         "FLAG": 1, "RATE": 1, "TIME": 1, "PHI": 1, "RING_FX": 1, "RING_FY": 1, "DRIVE": 1,
         "LOSS": 1, "WORK": 1, "ELASTIC": 1, "INV_MB": 1, "INV_MC": 1, "DTS": 2 * nb,
-        "EVERY": 1, "COUNTDOWN": 1, "REC_INDEX": 1,
+        "EVERY": 1, "COUNTDOWN": 1, "REC_INDEX": 1, "SURF": 3,
     }  # fmt: skip
     rows = {"NB": nb, "N2": 2 * nb, "RING": 2 * balls}
     row = PARAM_ROWS["_total"]
