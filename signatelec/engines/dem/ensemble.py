@@ -41,23 +41,7 @@ import math
 from numba import njit
 
 from signatelec.engines.dem.lanes import (
-    P_DT,
-    P_G,
-    P_IB,
-    P_LIMIT,
-    P_LOBE_AMP,
-    P_MB,
-    P_MC,
-    P_MI,
-    P_MU,
-    P_NCOEF,
-    P_NDAMP,
-    P_RB,
-    P_RC,
-    P_RIN,
-    P_RP,
-    P_TDAMP,
-    P_TSTIFF,
+    PARAMETER_ROWS,
     check_finite,
     copy_rows,
     kinetic_energy,
@@ -89,6 +73,10 @@ tangential_force = inline(_contact.tangential_force)
 _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 
 # --- rows of W and of a recorded instant (.lanes; module constants: numba compiles them in) ---
+(
+    P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT, P_LOBE_AMP, P_NCOEF,
+    P_NDAMP, P_TSTIFF, P_TDAMP,
+) = PARAMETER_ROWS  # fmt: skip
 (
     NB, N2, RING, POS, VEL, ACC, ACC_NEW, SPIN, SPIN_ACC, SPIN_OLD, XI, ROT, ROOTS, FCON, SCHED,
     ENERGY_ROW, STATUS, FLAG, RATE, TIME, PHI, RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC,
@@ -273,15 +261,24 @@ def _ball_lanes(k, PR, W):
     root = (ROOTS + 20 * k) * LANES
     fc = (FCON + 6 * k) * LANES
     # The local surface first, in a loop of its own: scalar (its loop over the defects), it
-    # leaves the contacts' loop vector.
+    # leaves the contacts' loop vector; only at the contacts that touch, as in the kernel.
     for lane in range(LANES if SURFACE else 0):
         x = W[bx + lane]
         y = W[bx + LANES + lane]
         phi = W[PHI * LANES + lane]
         rot = W[(ROT + k) * LANES + lane]
-        if DEFECTS_INNER or DEFECTS_BALL:
-            theta = math.atan2(x - W[ring + lane], -(y - W[ring + LANES + lane]))
+        rb = W[P_RB * LANES + lane]
+        dx = x - W[ring + lane]
+        dy = y - W[ring + LANES + lane]
+        reach = W[P_RIN * LANES + lane] + rb
+        if (DEFECTS_INNER or DEFECTS_BALL) and dx * dx + dy * dy < reach * reach:
+            theta = math.atan2(dx, -dy)
             W[SURF * LANES + lane] = contact_drop(INNER_SIDE, theta, phi, k, PR[lane], rot)
+        inside = W[SCHED * LANES + lane] - rb
+        if OUT_OF_ROUND:
+            inside -= W[P_LOBE_AMP * LANES + lane]
+        if not x * x + y * y > inside * inside:
+            continue
         theta = math.atan2(x, -y)
         if OUT_OF_ROUND:
             W[(SURF + 1) * LANES + lane] = lobe_shift(W[TIME * LANES + lane], theta, PR[lane])

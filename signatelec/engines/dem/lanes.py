@@ -34,6 +34,12 @@ P_NDAMP, P_TSTIFF, P_TDAMP = (
     for name in ("normal_damping", "tangential_stiffness", "tangential_damping")
 )
 
+#: The parameter rows the ensemble kernel reads, in the order it unpacks them.
+PARAMETER_ROWS = (
+    P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT, P_LOBE_AMP, P_NCOEF,
+    P_NDAMP, P_TSTIFF, P_TDAMP,
+)  # fmt: skip
+
 
 class WorkRows(NamedTuple):
     """First row of each block of W for Z balls (blocks of one row unless stated)."""
