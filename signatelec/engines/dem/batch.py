@@ -1,12 +1,14 @@
 """Many scenes per kernel call: :func:`simulate_batch` runs DEM scenes through the ensemble
 kernel (:mod:`signatelec.engines.dem.ensemble`), LANES scenes of one kernel in lockstep.
 
-Scenes are grouped by their kernel (:class:`~.spec.KernelSpec`), number of balls and record
-interval; each group runs in lane groups of ``lanes`` scenes (the last one padded with copies of
-its last scene, whose results are dropped). Each scene keeps its own time step: the lanes share
-the step index, not the time, so a scene's run is the one the single-scene kernel makes, to
-round-off (tests/test_ensemble.py). A group runs to the longest of its scenes; a shorter scene's
-lane runs on, unrecorded, after its end (the cost of mixing durations in one lane group).
+Scenes are grouped by their kernel (:class:`~.spec.KernelSpec`) and number of balls (each lane
+records at its own interval: the scenes of a dataset, whose time steps and so record intervals
+differ, share lane groups); each group runs in lane groups of ``lanes`` scenes (the last one
+padded with copies of its last scene, whose results are dropped). Each scene keeps its own
+time step: the lanes share the step index, not the time, so a scene's run is the one the
+single-scene kernel makes, to round-off (tests/test_ensemble.py). A group runs to the longest
+of its scenes; a shorter scene's lane runs on, unrecorded, after its end (the cost of mixing
+durations in one lane group).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 
 from signatelec.config.scene import Scene, SceneError
 from signatelec.engines.dem.build import get_kernel, prepare
-from signatelec.engines.dem.records import OK, PARAM_ROWS, Recording
+from signatelec.engines.dem.records import OK, PARAM_ROWS, REC_ROTATION, Recording
 from signatelec.engines.dem.run import (
     _divergence_message,
     checked_limit,
@@ -32,15 +34,7 @@ from signatelec.engines.results import DivergenceError, SimulationResult
 #: Scenes per lane group: 8 float64 lanes fill one AVX-512 register.
 LANES = 8
 #: What the ensemble kernel does not carry (the single-scene kernel does), by kernel flag.
-NOT_CARRIED = {
-    "CAGE_RIGID": 'effects.cage = "rigid"',
-    "DEFECTS_OUTER": "a defect on the outer race",
-    "DEFECTS_INNER": "a defect on the inner race",
-    "DEFECTS_BALL": "a defect on a ball",
-    "UNBALANCE": "an unbalance",
-    "LOAD_TABLE": "a load table",
-    "OUT_OF_ROUND": "an out-of-round outer race",
-}
+NOT_CARRIED = {"CAGE_RIGID": 'effects.cage = "rigid"'}
 
 
 def refusal(spec: KernelSpec) -> str | None:
@@ -64,6 +58,7 @@ def _pack(lanes: int, scenes: list[Scene], kern):
             row = PARAM_ROWS[name]
             values = np.ravel(p[name])
             W[row : row + values.size, lane] = values
+        W[kern.EVERY, lane] = scene.record_every
         st = initial_state(scene)
         for row, values in ((kern.POS, st.pos), (kern.VEL, st.vel), (kern.SPIN, st.spin)):
             W[row : row + values.size, lane] = values.ravel()
@@ -75,8 +70,9 @@ def _recording(kern, rec: np.ndarray, lane: int) -> Recording:
     n, z, nb = rec.shape[0], kern.BALLS, kern.NB
     r = rec.reshape(n, kern.REC_ROWS, kern.LANES)[:, :, lane]
     motion = r[:, kern.REC_POS : kern.REC_SPIN]
-    fcon = np.zeros((n, z, 7))  # column 6, the ball's rotation, is tracked with ball defects only
+    fcon = np.zeros((n, z, 7))
     fcon[:, :, :6] = r[:, kern.REC_FCON : kern.REC_SCHED].reshape(n, z, 6)
+    fcon[:, :, REC_ROTATION] = r[:, kern.REC_ROT : kern.REC_ROT + z]  # 0 without ball defects
     return Recording(
         time_s=r[:, kern.REC_TIME],
         pos=motion[:, : 2 * nb].reshape(n, nb, 2),
@@ -92,24 +88,23 @@ def _run_group(spec: KernelSpec, scenes: list[Scene], limits: list, lanes: int) 
     """Run up to ``lanes`` scenes of one kernel (``limits`` their stability limits); a result or
     a DivergenceError per scene."""
     z = scenes[0].bearing.n_balls
-    every = scenes[0].record_every
     padded = scenes + [scenes[-1]] * (lanes - len(scenes))
     kern = get_kernel(spec, {"BALLS": z, "LANES": lanes})
     PR, W = _pack(lanes, padded, kern)
     n_steps = max(s.n_steps for s in scenes)
-    rec = np.zeros((n_steps // every, kern.REC_ROWS * lanes))
+    rec = np.zeros((max(s.n_steps // s.record_every for s in padded), kern.REC_ROWS * lanes))
     t0 = time.perf_counter()
-    kern = prepare(kern, spec, {"start": (PR, W), "run": (PR, W, rec, 0, 0, every, 0)})
+    kern = prepare(kern, spec, {"start": (PR, W), "run": (PR, W, rec, 0, 0)})
     kern.start(PR, W)
     compile_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     cpu0 = time.process_time()
-    chunk = max(every, (n_steps // 200) // every * every)
-    step = rec_index = 0
+    chunk = max(1, n_steps // 200)
+    step = 0
     status = W.reshape(kern.ROWS, lanes)[kern.STATUS : kern.STATUS + 4]
     while step < n_steps and (status[0] == OK).any():
         count = min(chunk, n_steps - step)
-        rec_index = kern.run(PR, W, rec, step, count, every, rec_index)
+        kern.run(PR, W, rec, step, count)
         step += count
     # the batch's time, shared among its scenes by their steps
     share = np.array([s.n_steps for s in padded], float) / sum(s.n_steps for s in padded)
@@ -121,7 +116,7 @@ def _run_group(spec: KernelSpec, scenes: list[Scene], limits: list, lanes: int) 
             message = _divergence_message(scene, status[:, lane].astype(np.int64))
             out.append(DivergenceError(message))
             continue
-        n_rec = scene.n_steps // every
+        n_rec = scene.n_steps // scene.record_every
         out.append(
             dem_result(
                 scene,
@@ -165,9 +160,9 @@ def simulate_batch(
         why = refusal(spec)
         if why:
             raise SceneError(why)
-        groups[(spec, scene.bearing.n_balls, scene.record_every)].append(i)
+        groups[(spec, scene.bearing.n_balls)].append(i)
     results: list = [None] * len(scenes)
-    for (spec, _, _), members in groups.items():
+    for (spec, _), members in groups.items():
         for start in range(0, len(members), lanes):
             chunk = members[start : start + lanes]
             group = _run_group(spec, [scenes[i] for i in chunk], [limits[i] for i in chunk], lanes)

@@ -1,13 +1,15 @@
 """Ensemble DEM kernel: LANES scenes of one KernelSpec advanced in lockstep, one source
 specialised (:mod:`.build`) per KernelSpec (the flags of :mod:`.kernel`), BALLS and LANES.
 
-Every body, contact, parameter (:data:`.records.PARAM_ROWS`) and accumulator of the single-scene
-kernel is a row of LANES float64 values of one flat array ``W``: ``W[row * LANES + lane]``. The
-lane loop is the innermost loop of every contact, its trip count and row offsets compile-time
-constants, one array written: LLVM vectorises it (8 lanes of AVX-512). A contact that opens or
-closes is a select, not a branch. The physics is that of :mod:`.kernel`, in the same order and
-with the same functions (physics.contact, primitives: warm roots, damping, Coulomb limit); the
-schedule, with its cosines, runs per lane from ``PR``, the lanes' parameter records.
+Every body, contact, parameter and accumulator of the single-scene kernel is a row of LANES
+float64 values of one flat array ``W`` (rows: :mod:`.lanes`). The lane loop is the innermost
+loop of every contact, its trip count and row offsets compile-time constants, one array written:
+LLVM vectorises it (8 lanes of AVX-512). A contact that opens or closes is a select, not a
+branch. The physics is that of :mod:`.kernel`, in the same order and with the same functions
+(physics.contact; primitives: warm roots, damping, Coulomb limit, the schedule, the load table,
+the unbalance, the local surface of defects and lobes from physics.defects); the schedule, with
+its cosines, and the local surface, with its loop over the defects, run per lane from ``PR``,
+the lanes' parameter records (a defect's geometry is a scene's own: each lane reads its table).
 """
 
 # fmt: off
@@ -38,27 +40,31 @@ import math
 
 from numba import njit
 
+from signatelec.engines.dem.lanes import (
+    PARAMETER_ROWS,
+    check_finite,
+    copy_rows,
+    kinetic_energy,
+    record_rows,
+    work_rows,
+)
 from signatelec.engines.dem.primitives import (
     FASTMATH,
+    contact_drop,
     coulomb_limit,
     damped_normal_force,
     inline,
+    lobe_shift,
+    ring_angle_rad,
     rquart_next,
     rsqrt_next,
     schedule,
+    scheduled_load,
+    unbalance_force,
 )
-from signatelec.engines.dem.records import (
-    NONFINITE,
-    OK,
-    OVERLAP,
-    PARAM_ROWS,
-    R_INNER,
-    R_OUTER,
-    R_SIDE0,
-    R_SIDE1,
-    R_WALL,
-)
+from signatelec.engines.dem.records import OK, OVERLAP, R_INNER, R_OUTER, R_SIDE0, R_SIDE1, R_WALL
 from signatelec.physics import contact as _contact
+from signatelec.physics.defect_geometry import INNER_SIDE, OUTER_SIDE
 
 hertz_elastic_energy = inline(_contact.hertz_elastic_energy)
 linear_normal_force = inline(_contact.linear_normal_force)
@@ -66,52 +72,19 @@ linear_elastic_energy = inline(_contact.linear_elastic_energy)
 tangential_force = inline(_contact.tangential_force)
 _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 
-# --- rows of W (module constants: numba compiles them in) -------------------------------------
-NB = 2 * BALLS + 1  # bodies
-N2 = 2 * NB  # body coordinates
-RING = 2 * BALLS  # the inner ring's body
-POS = PARAM_ROWS["_total"]  # the parameters first
-VEL = POS + N2
-ACC = VEL + N2
-ACC_NEW = ACC + N2
-SPIN = ACC_NEW + N2
-SPIN_ACC = SPIN + BALLS
-SPIN_OLD = SPIN_ACC + BALLS
-XI = SPIN_OLD + BALLS  # 4 per ball, as State.xi
-ROOTS = XI + 4 * BALLS  # 20 per ball, as State.roots
-FCON = ROOTS + 20 * BALLS  # 6 per ball, as State.fcon
-SCHED = FCON + 6 * BALLS  # 4, as State.sched
-ENERGY_ROW = SCHED + 4  # 4, as State.energy
-STATUS = ENERGY_ROW + 4  # 4, as State.status (as floats)
-FLAG = STATUS + 4  # this step's overlap: 0, or 1 + kind + 8 body (one masked store a contact)
-RATE = FLAG + 1  # the outer race radius' rate
-# accumulators of one force evaluation
-RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC = range(RATE + 1, RATE + 7)
-INV_MB, INV_MC, DTS = ELASTIC + 1, ELASTIC + 2, ELASTIC + 3  # reciprocal masses; dt (N2 rows)
-ROWS = DTS + N2
-#: Rows of one recorded instant: time, positions and velocities, spins, contact forces,
-#: schedule, energy (kinetic in the last).
-REC_TIME = 0
-REC_POS = 1
-REC_SPIN = REC_POS + 2 * N2
-REC_FCON = REC_SPIN + BALLS
-REC_SCHED = REC_FCON + 6 * BALLS
-REC_ENERGY = REC_SCHED + 4
-REC_ROWS = REC_ENERGY + 4
-# --- rows of the parameters in W (records.PARAM_ROWS) ---------------------------------------
-P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT = (
-    PARAM_ROWS[name]
-    for name in (
-        "dt_s", "ball_radius_m", "cage_ball_radius_m", "inner_race_radius_m", "pitch_radius_m",
-        "ball_mass_kg", "ball_inertia_kg_m2", "cage_ball_mass_kg", "inner_ring_mass_kg",
-        "gravity_m_s2", "friction_coefficient", "max_overlap_fraction",
-    )
-)  # fmt: skip
-P_NCOEF = PARAM_ROWS["normal_coefficient"]  # 6 rows each, by contact type; then 2 by raceway
-P_NDAMP, P_TSTIFF, P_TDAMP = (
-    PARAM_ROWS[f"{name}_factor"]
-    for name in ("normal_damping", "tangential_stiffness", "tangential_damping")
-)
+# --- rows of W and of a recorded instant (.lanes; module constants: numba compiles them in) ---
+(
+    P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT, P_LOBE_AMP, P_NCOEF,
+    P_NDAMP, P_TSTIFF, P_TDAMP,
+) = PARAMETER_ROWS  # fmt: skip
+(
+    NB, N2, RING, POS, VEL, ACC, ACC_NEW, SPIN, SPIN_ACC, SPIN_OLD, XI, ROT, ROOTS, FCON, SCHED,
+    ENERGY_ROW, STATUS, FLAG, RATE, TIME, PHI, RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC,
+    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, ROWS,
+) = work_rows(BALLS)  # fmt: skip
+REC_TIME, REC_POS, REC_SPIN, REC_FCON, REC_SCHED, REC_ENERGY, REC_ROT, REC_ROWS = record_rows(BALLS)
+#: Geometry with defects or lobes: a contact's overlap may be <= 0 (a ball over a spall).
+SURFACE = DEFECTS_OUTER or DEFECTS_INNER or DEFECTS_BALL or OUT_OF_ROUND
 #: The forces of step n are evaluated at (n + 1) dt (Verlet) or n dt (symplectic Euler).
 T_SHIFT = 1 if INTEGRATOR_VERLET else 0
 
@@ -125,7 +98,7 @@ def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, ro
     over = inside and overlap > limit_m  # selects, not a branch: the loop stays vectorised
     W[FLAG * LANES + lane] = 1.0 + kind + 8.0 * body if over else W[FLAG * LANES + lane]
     touch = inside
-    if not CONTACT_LAW_LINEAR:
+    if SURFACE or not CONTACT_LAW_LINEAR:  # a ball over a spall, or touching without force
         touch = inside and overlap > 0.0
     coef = W[(P_NCOEF + kind) * LANES + lane]
     root = 1.0
@@ -196,19 +169,35 @@ def forces(step, PR, W):
     for lane in range(LANES):
         p = PR[lane]
         dt = W[P_DT * LANES + lane]
-        r_out, r_rate, fr, omega = schedule((step + T_SHIFT) * dt, p)
+        t = (step + T_SHIFT) * dt
+        r_out, r_rate, fr, omega = schedule(t, p)
         W[SCHED * LANES + lane] = r_out
         W[(SCHED + 1) * LANES + lane] = fr
+        phi = ring_angle_rad(t, p) if DEFECTS_INNER or UNBALANCE else 0.0  # inner-ring angle
+        if LOAD_TABLE:
+            fr = scheduled_load(t, p, fr)
+            W[(SCHED + 1) * LANES + lane] = fr
         W[(SCHED + 2) * LANES + lane] = omega
         W[RATE * LANES + lane] = r_rate
+        W[TIME * LANES + lane] = t
+        W[PHI * LANES + lane] = phi
         W[FLAG * LANES + lane] = 0.0
         g = p.gravity_m_s2 if GRAVITY_STANDARD else 0.0
-        W[RING_FX * LANES + lane] = 0.0
-        W[RING_FY * LANES + lane] = -fr - p.inner_ring_mass_kg * g
+        ring_fx = 0.0
+        ring_fy = -fr - p.inner_ring_mass_kg * g
+        work = 0.0
+        if UNBALANCE:
+            ufx, ufy = unbalance_force(phi, omega, p)
+            ring_fx += ufx
+            ring_fy += ufy
+            if ENERGY:
+                vr = (VEL + 2 * RING) * LANES + lane
+                work += (ufx * W[vr] + ufy * W[vr + LANES]) * dt
+        W[RING_FX * LANES + lane] = ring_fx
+        W[RING_FY * LANES + lane] = ring_fy
         W[DRIVE * LANES + lane] = 0.0
         W[LOSS * LANES + lane] = 0.0
         W[ELASTIC * LANES + lane] = 0.0
-        work = 0.0
         if ENERGY:
             vel_y = W[(VEL + 2 * RING + 1) * LANES + lane]
             work += -fr * vel_y * dt
@@ -228,7 +217,7 @@ def forces(step, PR, W):
         for i in range(2 * BALLS * LANES, 4 * BALLS * LANES):
             W[ACC_NEW * LANES + i] = 0.0
     for k in range(BALLS):
-        _ball_lanes(k, W)
+        _ball_lanes(k, PR, W)
     # The last cage ball's next ball (0) apart: no index is a select (scalar code). A body's
     # F / m joins the loop of its last contact (a small loop of its own stays scalar).
     if CAGE_BALLS:
@@ -261,15 +250,40 @@ def forces(step, PR, W):
 
 
 @inline
-def _ball_lanes(k, W):
+def _ball_lanes(k, PR, W):
     """Ball k on its raceways, every lane: its force (into ACC_NEW), spin acceleration, the
-    inner ring's reaction and the drive torque (:func:`.kernel.forces`, ball loop)."""
+    inner ring's reaction and the drive torque (:func:`.kernel.forces`, ball loop). The local
+    surface (defects, lobes) lowers each overlap as in the kernel, from each lane's PR."""
     bx = (POS + 2 * k) * LANES
     ring = (POS + 2 * RING) * LANES
     vb = (VEL + 2 * k) * LANES
     vr = (VEL + 2 * RING) * LANES
     root = (ROOTS + 20 * k) * LANES
     fc = (FCON + 6 * k) * LANES
+    # The local surface first, in a loop of its own: scalar (its loop over the defects), it
+    # leaves the contacts' loop vector; only at the contacts that touch, as in the kernel.
+    for lane in range(LANES if SURFACE else 0):
+        x = W[bx + lane]
+        y = W[bx + LANES + lane]
+        phi = W[PHI * LANES + lane]
+        rot = W[(ROT + k) * LANES + lane]
+        rb = W[P_RB * LANES + lane]
+        dx = x - W[ring + lane]
+        dy = y - W[ring + LANES + lane]
+        reach = W[P_RIN * LANES + lane] + rb
+        if (DEFECTS_INNER or DEFECTS_BALL) and dx * dx + dy * dy < reach * reach:
+            theta = math.atan2(dx, -dy)
+            W[SURF * LANES + lane] = contact_drop(INNER_SIDE, theta, phi, k, PR[lane], rot)
+        inside = W[SCHED * LANES + lane] - rb
+        if OUT_OF_ROUND:
+            inside -= W[P_LOBE_AMP * LANES + lane]
+        if not x * x + y * y > inside * inside:
+            continue
+        theta = math.atan2(x, -y)
+        if OUT_OF_ROUND:
+            W[(SURF + 1) * LANES + lane] = lobe_shift(W[TIME * LANES + lane], theta, PR[lane])
+        if DEFECTS_OUTER or DEFECTS_BALL:
+            W[(SURF + 2) * LANES + lane] = contact_drop(OUTER_SIDE, theta, phi, k, PR[lane], rot)
     for lane in range(LANES):
         dt = W[P_DT * LANES + lane]
         rb = W[P_RB * LANES + lane]
@@ -307,6 +321,8 @@ def _ball_lanes(k, W):
         rvy = vy - W[vr + LANES + lane]
         vclose = -(rvx * nx + rvy * ny)
         ov = reach - d2 * inv
+        if DEFECTS_INNER or DEFECTS_BALL:  # the overlap with the local surface
+            ov -= W[SURF * LANES + lane]
         fn, rd, qd, dloss, de = normal_lane(
             ov, vclose, 0, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_INNER + 1
         )
@@ -336,6 +352,8 @@ def _ball_lanes(k, W):
         # --- ball / outer raceway
         r2 = x * x + y * y
         inside_r = r_out - rb
+        if OUT_OF_ROUND:
+            inside_r -= W[P_LOBE_AMP * LANES + lane]
         inside = r2 > inside_r * inside_r
         at = root + R_OUTER * LANES + lane
         inv_old = W[at]
@@ -353,6 +371,10 @@ def _ball_lanes(k, W):
                 work += -fcp * (vx * nx + vy * ny) * dt
         vclose = vx * nx + vy * ny - r_rate
         ov = r + rb - r_out
+        if OUT_OF_ROUND:  # the local surface
+            ov -= W[(SURF + 1) * LANES + lane]
+        if DEFECTS_OUTER or DEFECTS_BALL:
+            ov -= W[(SURF + 2) * LANES + lane]
         fn, rd, qd, dloss, de = normal_lane(
             ov, vclose, 1, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_OUTER + 1
         )
@@ -466,71 +488,32 @@ def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W, last):
 
 
 @njit(error_model="numpy", _nrt=False)
-def record(W, rec, i, step):
-    """Copy every lane's state into recorded instant ``i`` (rows REC_*) after ``step``."""
-    for lane in range(LANES):
-        rec[i, REC_TIME * LANES + lane] = (step + 1) * W[P_DT * LANES + lane]
-    for r in range(2 * N2 * LANES):  # positions then velocities
-        rec[i, REC_POS * LANES + r] = W[POS * LANES + r]
-    for r in range(BALLS * LANES):
-        rec[i, REC_SPIN * LANES + r] = W[SPIN * LANES + r]
-    for r in range(6 * BALLS * LANES):
-        rec[i, REC_FCON * LANES + r] = W[FCON * LANES + r]
-    for r in range(4 * LANES):
-        rec[i, REC_SCHED * LANES + r] = W[SCHED * LANES + r]
+def record(W, rec, i, lane, step):
+    """Copy lane ``lane``'s state into its recorded instant ``i`` (rows REC_*) after ``step``."""
+    rec[i, REC_TIME * LANES + lane] = (step + 1) * W[P_DT * LANES + lane]
+    copy_rows(W, POS, rec, i, REC_POS, 2 * N2, lane, LANES)  # positions then velocities
+    copy_rows(W, SPIN, rec, i, REC_SPIN, BALLS, lane, LANES)
+    copy_rows(W, FCON, rec, i, REC_FCON, 6 * BALLS, lane, LANES)
+    copy_rows(W, SCHED, rec, i, REC_SCHED, 4, lane, LANES)
+    if DEFECTS_BALL:
+        copy_rows(W, ROT, rec, i, REC_ROT, BALLS, lane, LANES)
     if ENERGY:
-        for r in range(3 * LANES):
-            rec[i, REC_ENERGY * LANES + r] = W[ENERGY_ROW * LANES + r]
-        for lane in range(LANES):
-            rec[i, (REC_ENERGY + 3) * LANES + lane] = _kinetic_energy(W, lane)
-
-
-@njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
-def _kinetic_energy(W, lane):
-    """:func:`.primitives.kinetic_energy` of one lane (its rigid-cage terms are 0 here), J."""
-    mb = W[P_MB * LANES + lane]
-    ib = W[P_IB * LANES + lane]
-    mc = W[P_MC * LANES + lane]
-    v = VEL * LANES + lane
-    ring = W[v + 2 * RING * LANES] ** 2 + W[v + (2 * RING + 1) * LANES] ** 2
-    e = 0.5 * W[P_MI * LANES + lane] * ring
-    for k in range(BALLS):
-        e += 0.5 * mb * (W[v + 2 * k * LANES] ** 2 + W[v + (2 * k + 1) * LANES] ** 2)
-        e += 0.5 * ib * W[(SPIN + k) * LANES + lane] ** 2
-        c = BALLS + k
-        e += 0.5 * mc * (W[v + 2 * c * LANES] ** 2 + W[v + (2 * c + 1) * LANES] ** 2)
-    return e
-
-
-# No fastmath: under its flags LLVM folds math.isfinite(x) to True.
-@njit(error_model="numpy", _nrt=False)
-def _check_finite(W, step):
-    """Flag (status NONFINITE) each lane, still OK, whose positions or velocities are not finite."""
-    for lane in range(LANES):
-        if W[STATUS * LANES + lane] != OK:
-            continue
-        for b in range(NB):
-            x = W[(POS + 2 * b) * LANES + lane] + W[(POS + 2 * b + 1) * LANES + lane]
-            v = W[(VEL + 2 * b) * LANES + lane] + W[(VEL + 2 * b + 1) * LANES + lane]
-            if not math.isfinite(x + v):
-                W[STATUS * LANES + lane] = NONFINITE
-                W[(STATUS + 1) * LANES + lane] = step
-                W[(STATUS + 2) * LANES + lane] = b
-                W[(STATUS + 3) * LANES + lane] = -1
-                break
+        copy_rows(W, ENERGY_ROW, rec, i, REC_ENERGY, 3, lane, LANES)
+        e = kinetic_energy(W, lane, LANES, BALLS, VEL, SPIN)
+        rec[i, (REC_ENERGY + 3) * LANES + lane] = e
 
 
 # No fastmath in the time loop (as kernel.run: the divergence check must see an overflow).
 @njit(cache=True, error_model="numpy", _nrt=False)
-def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
+def run(PR, W, rec, step0, n_steps):
     """Advance every lane of ``W`` by ``n_steps`` from step ``step0`` (:func:`.kernel.run`, lane
-    by lane); record into ``rec`` from index ``rec_index0`` every ``record_every`` steps.
+    by lane); each lane records into its column of ``rec`` every W[EVERY] steps of its own (its
+    record interval: lanes of other time steps or sample rates share a call), at its next free
+    index W[REC_INDEX].
 
-    Returns the next free record index. A lane that diverges keeps its first status (the lanes
-    are independent: its values reach no other lane) and runs on; the run stops when every
-    lane has diverged."""
-    rec_index = rec_index0
-    countdown = record_every - step0 % record_every
+    Returns the number of lanes still running. A lane that diverges keeps its first status (the
+    lanes are independent: its values reach no other lane) and runs on; the run stops when
+    every lane has diverged."""
     for i_step in range(n_steps):
         step = step0 + i_step
         # flat loops at constant offsets (dt from DTS): LLVM proves the rows apart, vectorises
@@ -540,6 +523,11 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
                 a = W[ACC * LANES + r]
                 W[POS * LANES + r] += W[VEL * LANES + r] * dt + a * (0.5 * dt * dt)
                 W[VEL * LANES + r] += a * dt
+            if DEFECTS_BALL:  # each ball's rotation angle, as its position
+                for r in range(BALLS * LANES):
+                    dt = W[DTS * LANES + r]
+                    spin_step = W[SPIN_ACC * LANES + r] * (0.5 * dt * dt)
+                    W[ROT * LANES + r] += W[SPIN * LANES + r] * dt + spin_step
             for r in range(BALLS * LANES):
                 dt = W[DTS * LANES + r]
                 W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * dt
@@ -564,6 +552,8 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
                 W[POS * LANES + r] += W[VEL * LANES + r] * dt
             for r in range(BALLS * LANES):
                 W[SPIN * LANES + r] += W[SPIN_ACC * LANES + r] * W[DTS * LANES + r]
+                if DEFECTS_BALL:
+                    W[ROT * LANES + r] += W[SPIN * LANES + r] * W[DTS * LANES + r]
         running = 0
         for lane in range(LANES):  # a vector reduction; lane by lane only when one stops
             running += W[STATUS * LANES + lane] == OK and W[FLAG * LANES + lane] == 0.0
@@ -576,15 +566,20 @@ def run(PR, W, rec, step0, n_steps, record_every, rec_index0):
                     W[(STATUS + 2) * LANES + lane] = code // 8.0
                     W[(STATUS + 3) * LANES + lane] = code % 8.0
         if running == 0:
-            return rec_index
-        countdown -= 1
-        if countdown == 0:
-            countdown = record_every
-            _check_finite(W, step)
-            if rec_index < rec.shape[0]:
-                record(W, rec, rec_index, step)
-                rec_index += 1
-    return rec_index
+            return 0
+        due = 0
+        for lane in range(LANES):  # each lane's countdown to its next recorded step (a vector)
+            left = W[COUNTDOWN * LANES + lane] - 1.0
+            due += left == 0.0
+            W[COUNTDOWN * LANES + lane] = W[EVERY * LANES + lane] if left == 0.0 else left
+        for lane in range(LANES if due else 0):
+            if W[COUNTDOWN * LANES + lane] == W[EVERY * LANES + lane]:  # just reset: due
+                check_finite(W, step, lane, LANES, NB, POS, VEL, STATUS)
+                i = int(W[REC_INDEX * LANES + lane])
+                if i < rec.shape[0]:
+                    record(W, rec, i, lane, step)
+                    W[REC_INDEX * LANES + lane] = i + 1
+    return running
 
 
 @_entry
@@ -592,6 +587,9 @@ def start(PR, W):
     """Initial accelerations at t = 0 of every lane (needed by velocity Verlet)."""
     for r in range(N2 * LANES):  # each lane's dt, once per body coordinate (run's loops)
         W[DTS * LANES + r] = W[P_DT * LANES + r % LANES]
+    for lane in range(LANES):  # step 0: each lane's first record after EVERY steps
+        W[COUNTDOWN * LANES + lane] = W[EVERY * LANES + lane]
+        W[REC_INDEX * LANES + lane] = 0.0
     forces(-T_SHIFT, PR, W)
     for r in range(N2 * LANES):
         W[ACC * LANES + r] = W[ACC_NEW * LANES + r]

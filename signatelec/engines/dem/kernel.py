@@ -255,7 +255,7 @@ def forces(t, p, s, acc, step):
             vclose = -(rvx * nx + rvy * ny)
             ov = reach - d2 * inv
             if DEFECTS_INNER or DEFECTS_BALL:  # the overlap with the local surface
-                ov -= contact_drop(INNER_SIDE, math.atan2(dx, -dy), phi, k, p, s)
+                ov -= contact_drop(INNER_SIDE, math.atan2(dx, -dy), phi, k, p, s.xi[k, XI_ROTATION])
             fn, rd, qd, dloss, de = normal_contact(
                 ov, vclose, 0, ball_limit, k, p, s, k, R_INNER + 1, step
             )
@@ -311,7 +311,7 @@ def forces(t, p, s, acc, step):
                 if OUT_OF_ROUND:
                     ov -= lobe_shift(t, theta, p)
                 if DEFECTS_OUTER or DEFECTS_BALL:
-                    ov -= contact_drop(OUTER_SIDE, theta, phi, k, p, s)
+                    ov -= contact_drop(OUTER_SIDE, theta, phi, k, p, s.xi[k, XI_ROTATION])
             fn, rd, qd, dloss, de = normal_contact(
                 ov, vclose, 1, ball_limit, k, p, s, k, R_OUTER + 1, step
             )

@@ -12,7 +12,6 @@ import math
 
 from numba import njit
 
-from signatelec.engines.dem.records import XI_ROTATION
 from signatelec.physics.defects import lobe_shift_m, surface_drop_m, tabulated_load_n
 
 # No nnan/ninf: the divergence check relies on math.isfinite. The time loop and the functions it
@@ -159,10 +158,11 @@ def lobe_shift(t, theta, p):
 
 
 @inline
-def contact_drop(side, theta, phi, k, p, s):
-    """Drop of the local surface under ball k's contact on ``side`` (physics.defects)."""
+def contact_drop(side, theta, phi, k, p, ball_angle):
+    """Drop of the local surface under ball k's contact on ``side`` (physics.defects), the
+    ball turned by ``ball_angle``."""
     table, count, radius = p.defect_table, p.defect_count, p.contact_radius_m[side]
-    return surface_drop_m(side, theta, phi, k, s.xi[k, XI_ROTATION], table, count, radius)
+    return surface_drop_m(side, theta, phi, k, ball_angle, table, count, radius)
 
 
 # Scalar forms of contact.damped_normal_force and contact.coulomb_limit: numpy's maximum, minimum
