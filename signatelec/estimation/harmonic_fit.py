@@ -112,8 +112,8 @@ def harmonic_design(
     return design
 
 
-#: Samples per block of the phasor powers (powers, rows, samples): ~0.6 MB for ten rows and
-#: eight powers, which stays in cache between their products and their sums.
+#: Samples per block of the phasor powers (powers, rows, samples): ~0.3 MB for ten rows and
+#: four powers, which stays in cache between their products and their sums.
 _POWER_BLOCK = 512
 
 
@@ -154,7 +154,7 @@ def _columns(ks: list[int], derivative: bool) -> np.ndarray:
 
 def _dirichlet_sums(n: int, fs: float, f: np.ndarray, top: int) -> tuple[np.ndarray, ...]:
     """sum_n t^p cos(j phi) and sum_n t^p sin(j phi), p = 0..2, j = 0..top, per row, over the
-    samples t = (n - (N - 1) / 2) / fs of :func:`_analyse` (phi = 2 pi f t), in closed form.
+    samples t = (n - (N - 1) / 2) / fs (phi = 2 pi f t), in closed form.
 
     With x = pi j f / fs and D = sin(N x) / sin(x) (the Dirichlet kernel, the sum of cos(2 x m)
     over the symmetric m = n - (N - 1) / 2), the sums are D, 0, -D_xx / (4 fs^2) for cos and
@@ -188,7 +188,8 @@ def harmonic_equations(
     (:func:`_dirichlet_sums`); design r needs the 4 k_max + 2 sums of r t^0..1 against the
     phasor powers (formed and summed block by block of samples, :func:`_phasor_blocks`),
     instead of the m (m + 1) / 2 + m products of columns (m = 18 for four harmonics with
-    their t-columns). None when :func:`_dirichlet_sums` is."""
+    their t-columns). ``tc``: the samples' times from the middle, (n - (N - 1) / 2) / fs, as
+    the closed form takes them. None when :func:`_dirichlet_sums` is."""
     kmax = max(ks)
     rows, n = r.shape
     sums = _dirichlet_sums(n, fs, f, 2 * kmax)
@@ -236,7 +237,7 @@ def harmonic_residual(
     r: np.ndarray, tc: np.ndarray, f: np.ndarray, ks: list[int], sol: np.ndarray
 ) -> np.ndarray:
     """r minus the fit ``sol`` of :func:`harmonic_design` (without t-columns) at ``f``,
-    harmonics ``ks`` consecutive (as :func:`_by_harmonics` forms them)."""
+    harmonics ``ks`` consecutive (those below 0.45 fs, as the analysis groups rows)."""
     out = r - sol[:, 0, None] - sol[:, 1, None] * tc
     # Re((a_k - i b_k) z^k) = a_k cos + b_k sin: the harmonics' coefficients as complex
     c = (sol[:, 2::2] - 1j * sol[:, 3::2]).T[:, :, None]  # (k, rows, 1)
