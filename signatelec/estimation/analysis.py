@@ -22,6 +22,15 @@ import numpy as np
 from scipy import fft as sfft
 
 from signatelec.config.bearing import Bearing
+from signatelec.estimation.harmonic_fit import (
+    apply_design,
+    harmonic_design,
+    harmonic_equations,
+    harmonic_residual,
+    refine_frequency,
+    solve_normal,
+    solve_rows,
+)
 from signatelec.measurement.ripple import PAD
 from signatelec.measurement.traces import N_HARMONICS, SEARCH_REL
 from signatelec.physics.kinematics import expected_ball_pass_hz
@@ -152,161 +161,6 @@ def band_power(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
     if hi <= lo:
         return 0.0
     return band_mean(f, p, lo, hi) * (hi - lo)
-
-
-#: Samples per block of the least-squares products: below the size at which OpenBLAS spreads a
-#: product over threads, which on busy cores makes it ~30x slower, not faster.
-_BLOCK = 1024
-
-
-def _normal_equations(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """design design' and design r per row, summed over blocks of samples (design: rows,
-    columns, samples)."""
-    rows, m, n = design.shape
-    gram, rhs = np.zeros((rows, m, m)), np.zeros((rows, m))
-    for i in range(0, n, _BLOCK):
-        d = design[:, :, i : i + _BLOCK]
-        gram += np.matmul(d, d.transpose(0, 2, 1))
-        rhs += np.matmul(d, r[:, i : i + _BLOCK, None])[:, :, 0]
-    return gram, rhs
-
-
-def _apply(design: np.ndarray, sol: np.ndarray) -> np.ndarray:
-    """design' sol per row, column by column (no threaded BLAS either)."""
-    out = np.zeros((design.shape[0], design.shape[2]))
-    for j in range(design.shape[1]):
-        out += sol[:, j, None] * design[:, j]
-    return out
-
-
-def _solve_one(design: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Least squares of one row (design: columns, samples) by lstsq."""
-    m, n = design.shape
-    if n < m:
-        sol = np.linalg.lstsq(design[:n].T, r, rcond=None)[0]
-        return np.concatenate([sol, np.zeros(m - n)])
-    return np.linalg.lstsq(design.T, r, rcond=None)[0]
-
-
-def _solve_normal(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray | None:
-    """The normal equations' solution per row (a 1e-12 ridge), None if they are singular."""
-    m = gram.shape[1]
-    ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / m * np.eye(m)
-    try:
-        return np.linalg.solve(gram + ridge, rhs[:, :, None])[:, :, 0]
-    except np.linalg.LinAlgError:
-        return None
-
-
-def _solve(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares per row by the normal equations (columns nearly orthogonal over many
-    periods); lstsq when the trace is too short for that or the equations are singular.
-    Returns (solution, design r) per row: r.r - solution.(design r) is the residual sum of
-    squares (the residual is orthogonal to the columns)."""
-    rows, m, n = design.shape
-    if n >= 4 * m:
-        gram, rhs = _normal_equations(design, r)
-        sol = _solve_normal(gram, rhs)
-        if sol is not None:
-            return sol, rhs
-    sol = np.array([_solve_one(design[w], r[w]) for w in range(rows)])
-    return sol, np.matmul(design, r[:, :, None])[:, :, 0]
-
-
-def _phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """exp(2 pi i f[w] tc) per row, tc uniform: the product of a phasor over a block of
-    sqrt(n) samples and one per block start (2 sqrt(n) complex exponentials per row instead
-    of n; the phase of each factor is exact to round-off, as is their product)."""
-    n = tc.size
-    if n < 2:
-        return np.exp(2j * math.pi * f[:, None] * tc)
-    dt = tc[1] - tc[0]
-    block = max(1, int(math.isqrt(n)))
-    within = np.exp(2j * math.pi * f[:, None] * (tc[0] + dt * np.arange(block)))
-    starts = np.exp(2j * math.pi * f[:, None] * (dt * block * np.arange(-(-n // block))))
-    return (starts[:, :, None] * within[:, None, :]).reshape(f.size, -1)[:, :n]
-
-
-def _harmonic_design(
-    tc: np.ndarray, f: np.ndarray, ks: list[int], derivative: bool, z1: np.ndarray | None = None
-) -> np.ndarray:
-    """Per row (frequency f[w]): columns 1, tc, cos and sin of 2 pi k f tc for k in ks
-    [, tc cos, tc sin]; shape (rows, columns, samples). ``z1``: the phasors
-    :func:`_phasors` of ``tc`` and ``f``, when already known."""
-    z1 = _phasors(tc, f) if z1 is None else z1
-    per = 4 if derivative else 2
-    design = np.empty((f.size, 2 + per * len(ks), tc.size))
-    design[:, 0] = 1.0
-    design[:, 1] = tc
-    zk = np.ones_like(z1)
-    k_prev = 0
-    for j, k in enumerate(ks):
-        zk = zk * z1 if k - k_prev == 1 else zk * z1 ** (k - k_prev)
-        k_prev = k
-        c = 2 + per * j
-        design[:, c] = zk.real
-        design[:, c + 1] = zk.imag
-        if derivative:
-            np.multiply(tc, zk.real, out=design[:, c + 2])
-            np.multiply(tc, zk.imag, out=design[:, c + 3])
-    return design
-
-
-def _harmonic_normal_equations(
-    tc: np.ndarray, f: np.ndarray, ks: list[int], r: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_normal_equations` of the :func:`_harmonic_design` with derivative columns,
-    the design built block by block of samples and never whole (the same numbers: each
-    block's columns are those of the whole design's slice; ~10 % less time, the blocks
-    staying in cache)."""
-    z1 = _phasors(tc, f)
-    m = 2 + 4 * len(ks)
-    gram, rhs = np.zeros((f.size, m, m)), np.zeros((f.size, m))
-    for i in range(0, tc.size, _BLOCK):
-        d = _harmonic_design(tc[i : i + _BLOCK], f, ks, True, z1[:, i : i + _BLOCK])
-        gram += np.matmul(d, d.transpose(0, 2, 1))
-        rhs += np.matmul(d, r[:, i : i + _BLOCK, None])[:, :, 0]
-    return gram, rhs
-
-
-def _refine_frequency(
-    r: np.ndarray, tc: np.ndarray, f: np.ndarray, ks: list[int], span: float
-) -> np.ndarray:
-    """One Gauss-Newton step per row on the frequency of the harmonic fit (at most ``span``
-    from ``f``).
-
-    With cos(k(w + d)t) ~ cos(kwt) - k d t sin(kwt), the fitted t cos, t sin terms of harmonic k
-    are (k d b_k, -k d a_k); d is their least-squares ratio, weighted by k^2 |c_k|^2. One step
-    takes the spectrum's estimate (within ~1e-3 f_bp, inside the ~1 / T basin) to ~1e-6 f_bp on
-    a noise-free trace. Under noise the step is shrunk by d^2 / (d^2 + se^2), se its standard
-    error (24 sigma^2 / (N T^2 sum k^2 |c_k|^2))^(1/2): a step the noise could have made moves
-    little, so weak ripples keep the starting frequency instead of the noise's.
-    """
-    n = r.shape[1]
-    t_var = float(np.mean(tc * tc))
-    m = 2 + 4 * len(ks)
-    # the level (a column) taken out first: the residual sum of squares from the normal
-    # equations then cancels only the ripple's power, not the level's
-    r = r - r.mean(axis=1, keepdims=True)
-    gram, rhs = _harmonic_normal_equations(tc, f, ks, r)
-    sol = _solve_normal(gram, rhs)
-    if sol is None:
-        sol, rhs = _solve(_harmonic_design(tc, f, ks, derivative=True), r)
-    num, den = np.zeros(f.size), np.zeros(f.size)
-    for j, k in enumerate(ks):
-        a, b, p, q = sol[:, 2 + 4 * j : 6 + 4 * j].T
-        num += k * (p * b - q * a)
-        den += k * k * (a * a + b * b)
-    rss = np.maximum(np.einsum("ij,ij->i", r, r) - np.einsum("ij,ij->i", sol, rhs), 0.0)
-    sigma2 = rss / max(n - m, 1)
-    moves = (den > 0.0) & (t_var > 0.0)
-    safe = np.where(moves, den, 1.0)
-    d = num / safe
-    se2 = 2.0 * sigma2 / (n * t_var * safe) if t_var > 0.0 else np.zeros(f.size)
-    d2 = d * d
-    d = np.where(d2 + se2 > 0.0, d * d2 / np.where(d2 + se2 > 0.0, d2 + se2, 1.0), 0.0)
-    step = np.where(moves, d / (2.0 * math.pi), 0.0)
-    return np.clip(f + step, f - span, f + span)
 
 
 def analyse_trace(
@@ -480,18 +334,25 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
                 )
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
         if ks and n >= 8 * (2 + 4 * len(ks)):
-            f_bp[idx] = _refine_frequency(x[idx], tc, f_bp[idx], list(ks), 0.5 / duration)
+            f_bp[idx] = refine_frequency(x[idx], tc, f_bp[idx], list(ks), 0.5 / duration, fs)
     level, slope = np.zeros(rows), np.zeros(rows)
     coefficients = np.zeros((rows, n_harmonics), dtype=complex)
     residual = np.empty_like(x)
     n_fitted = np.zeros(rows, dtype=int)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
-        design = _harmonic_design(tc, f_bp[idx], list(ks), derivative=False)
-        sol = _solve(design, x[idx])[0]
+        sol = None
+        if n >= 4 * (2 + 2 * len(ks)):
+            eqs = harmonic_equations(tc, f_bp[idx], list(ks), x[idx], False, fs)
+            sol = None if eqs is None else solve_normal(*eqs)
+        if sol is None:
+            design = harmonic_design(tc, f_bp[idx], list(ks), derivative=False)
+            sol = solve_rows(design, x[idx])[0]
+            residual[idx] = x[idx] - apply_design(design, sol)
+        else:
+            residual[idx] = harmonic_residual(x[idx], tc, f_bp[idx], list(ks), sol)
         level[idx], slope[idx] = sol[:, 0], sol[:, 1]
         for j, k in enumerate(ks):
             coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]
-        residual[idx] = x[idx] - _apply(design, sol)
         n_fitted[idx] = len(ks)
     detrended = x - level[:, None] - slope[:, None] * tc
     spectra = _welch_rows(detrended, fs, f_bp, passes_per_segment)

@@ -1,0 +1,288 @@
+"""Least squares of a trace's level, drift and ball-pass harmonics, and the Gauss-Newton step
+on their frequency (:mod:`signatelec.estimation.analysis` fits each trace with them).
+
+Rows are traces (or windows of one) sampled at ``tc``, the time from the middle of the trace;
+the design's columns are 1, t, cos and sin of 2 pi k f t for the fitted harmonics k [, and
+t cos, t sin for the frequency step]. Their normal equations are formed without the design
+(:func:`harmonic_equations`: closed-form Gram matrix, phasor sums for design r), the design
+itself only where a trace is too short or the equations singular.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: Samples per block of the least-squares products: below the size at which OpenBLAS spreads a
+#: product over threads, which on busy cores makes it ~30x slower, not faster.
+_BLOCK = 1024
+
+
+def _normal_equations(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """design design' and design r per row, summed over blocks of samples (design: rows,
+    columns, samples)."""
+    rows, m, n = design.shape
+    gram, rhs = np.zeros((rows, m, m)), np.zeros((rows, m))
+    for i in range(0, n, _BLOCK):
+        d = design[:, :, i : i + _BLOCK]
+        gram += np.matmul(d, d.transpose(0, 2, 1))
+        rhs += np.matmul(d, r[:, i : i + _BLOCK, None])[:, :, 0]
+    return gram, rhs
+
+
+def apply_design(design: np.ndarray, sol: np.ndarray) -> np.ndarray:
+    """design' sol per row, column by column (no threaded BLAS either)."""
+    out = np.zeros((design.shape[0], design.shape[2]))
+    for j in range(design.shape[1]):
+        out += sol[:, j, None] * design[:, j]
+    return out
+
+
+def _solve_one(design: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Least squares of one row (design: columns, samples) by lstsq."""
+    m, n = design.shape
+    if n < m:
+        sol = np.linalg.lstsq(design[:n].T, r, rcond=None)[0]
+        return np.concatenate([sol, np.zeros(m - n)])
+    return np.linalg.lstsq(design.T, r, rcond=None)[0]
+
+
+def solve_normal(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray | None:
+    """The normal equations' solution per row (a 1e-12 ridge), None if they are singular."""
+    m = gram.shape[1]
+    ridge = 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / m * np.eye(m)
+    try:
+        return np.linalg.solve(gram + ridge, rhs[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        return None
+
+
+def solve_rows(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares per row by the normal equations (columns nearly orthogonal over many
+    periods); lstsq when the trace is too short for that or the equations are singular.
+    Returns (solution, design r) per row: r.r - solution.(design r) is the residual sum of
+    squares (the residual is orthogonal to the columns)."""
+    rows, m, n = design.shape
+    if n >= 4 * m:
+        gram, rhs = _normal_equations(design, r)
+        sol = solve_normal(gram, rhs)
+        if sol is not None:
+            return sol, rhs
+    sol = np.array([_solve_one(design[w], r[w]) for w in range(rows)])
+    return sol, np.matmul(design, r[:, :, None])[:, :, 0]
+
+
+def _phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """exp(2 pi i f[w] tc) per row, tc uniform: the product of a phasor over a block of
+    sqrt(n) samples and one per block start (2 sqrt(n) complex exponentials per row instead
+    of n; the phase of each factor is exact to round-off, as is their product)."""
+    n = tc.size
+    if n < 2:
+        return np.exp(2j * math.pi * f[:, None] * tc)
+    dt = tc[1] - tc[0]
+    block = max(1, int(math.isqrt(n)))
+    within = np.exp(2j * math.pi * f[:, None] * (tc[0] + dt * np.arange(block)))
+    starts = np.exp(2j * math.pi * f[:, None] * (dt * block * np.arange(-(-n // block))))
+    return (starts[:, :, None] * within[:, None, :]).reshape(f.size, -1)[:, :n]
+
+
+def harmonic_design(
+    tc: np.ndarray, f: np.ndarray, ks: list[int], derivative: bool, z1: np.ndarray | None = None
+) -> np.ndarray:
+    """Per row (frequency f[w]): columns 1, tc, cos and sin of 2 pi k f tc for k in ks
+    [, tc cos, tc sin]; shape (rows, columns, samples). ``z1``: the phasors
+    :func:`_phasors` of ``tc`` and ``f``, when already known."""
+    z1 = _phasors(tc, f) if z1 is None else z1
+    per = 4 if derivative else 2
+    design = np.empty((f.size, 2 + per * len(ks), tc.size))
+    design[:, 0] = 1.0
+    design[:, 1] = tc
+    zk = np.ones_like(z1)
+    k_prev = 0
+    for j, k in enumerate(ks):
+        zk = zk * z1 if k - k_prev == 1 else zk * z1 ** (k - k_prev)
+        k_prev = k
+        c = 2 + per * j
+        design[:, c] = zk.real
+        design[:, c + 1] = zk.imag
+        if derivative:
+            np.multiply(tc, zk.real, out=design[:, c + 2])
+            np.multiply(tc, zk.imag, out=design[:, c + 3])
+    return design
+
+
+#: Samples per block of the phasor powers (powers, rows, samples): ~0.3 MB for ten rows and
+#: four powers, which stays in cache between their products and their sums.
+_POWER_BLOCK = 512
+
+
+def _phasor_blocks(tc: np.ndarray, f: np.ndarray, top: int):
+    """(start, z^j for j = 1..top) per block of :data:`_POWER_BLOCK` samples, z the phasors
+    (:func:`_phasors`) of ``tc`` and ``f``, the powers by repeated products as
+    :func:`harmonic_design` forms them; each block shaped (top, rows, samples)."""
+    z1 = _phasors(tc, f)
+    for i in range(0, tc.size, _POWER_BLOCK):
+        zb = z1[:, i : i + _POWER_BLOCK]
+        out = np.empty((top,) + zb.shape, dtype=complex)
+        out[0] = zb
+        for j in range(1, top):
+            np.multiply(out[j - 1], zb, out=out[j])
+        yield i, out
+
+
+def _sample_sums(z: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """sum over samples of weights[p] z (real and imaginary parts) for z (powers, rows,
+    samples): per row, one product of z's interleaved (re, im) with the weights spread over
+    both; shaped (powers, rows, p, 2). Each row's product is its own (a batch of rows gives a
+    row the numbers it gets alone: a product over rows together may sum in another order)."""
+    k, rows, b = z.shape
+    spread = np.zeros((b, 2, weights.shape[0], 2))
+    spread[:, 0, :, 0] = spread[:, 1, :, 1] = weights.T
+    zf = z.view(float).reshape(k, rows, 2 * b).transpose(1, 0, 2)
+    out = np.matmul(zf, spread.reshape(2 * b, -1))  # (rows, powers, 2 p)
+    return out.reshape(rows, k, weights.shape[0], 2).transpose(1, 0, 2, 3)
+
+
+def _columns(ks: list[int], derivative: bool) -> np.ndarray:
+    """(power of t, sine?, harmonic) of each column of :func:`harmonic_design`."""
+    cols = [(0, 0, 0), (1, 0, 0)]
+    for k in ks:
+        cols += [(0, 0, k), (0, 1, k)] + ([(1, 0, k), (1, 1, k)] if derivative else [])
+    return np.array(cols)
+
+
+def _dirichlet_sums(n: int, fs: float, f: np.ndarray, top: int) -> tuple[np.ndarray, ...]:
+    """sum_n t^p cos(j phi) and sum_n t^p sin(j phi), p = 0..2, j = 0..top, per row, over the
+    samples t = (n - (N - 1) / 2) / fs (phi = 2 pi f t), in closed form.
+
+    With x = pi j f / fs and D = sin(N x) / sin(x) (the Dirichlet kernel, the sum of cos(2 x m)
+    over the symmetric m = n - (N - 1) / 2), the sums are D, 0, -D_xx / (4 fs^2) for cos and
+    0, -D_x / (2 fs), 0 for sin, with D_x = (N cos(N x) - D cos x) / sin x and
+    D_xx = (1 - N^2) D - 2 cot(x) D_x. Returns (cos sums, sin sums), each (rows, 3, top + 1),
+    or None when some sin(x) is too small for the quotients (f near 0), the caller then summing
+    over the samples."""
+    x = math.pi * f[:, None] * np.arange(1, top + 1) / fs
+    sx = np.sin(x)
+    if np.any(np.abs(sx) < 1e-6):
+        return None
+    cx = np.cos(x)
+    d = np.sin(n * x) / sx
+    dx = (n * np.cos(n * x) - d * cx) / sx
+    dxx = (1.0 - n * n) * d - 2.0 * cx / sx * dx
+    m = np.arange(n) - 0.5 * (n - 1)
+    cos_s, sin_s = np.zeros((f.size, 3, top + 1)), np.zeros((f.size, 3, top + 1))
+    cos_s[:, :, 0] = [n, 0.0, float(m @ m) / (fs * fs)]
+    cos_s[:, 0, 1:], cos_s[:, 2, 1:] = d, -dxx / (4.0 * fs * fs)
+    sin_s[:, 1, 1:] = -dx / (2.0 * fs)
+    return cos_s, sin_s
+
+
+def harmonic_equations(
+    tc: np.ndarray, f: np.ndarray, ks: list[int], r: np.ndarray, derivative: bool, fs: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The normal equations (design design', design r) of :func:`harmonic_design` per row,
+    without the design: every product of two columns t^p cos|sin(k phi) t^q cos|sin(l phi)
+    is, by cos a cos b = (cos(a - b) + cos(a + b)) / 2 and its kin, a half sum of
+    sum_n t^(p+q) cos|sin(j phi) for j = |k - l| and k + l, known in closed form
+    (:func:`_dirichlet_sums`); design r needs the 4 k_max + 2 sums of r t^0..1 against the
+    phasor powers (formed and summed block by block of samples, :func:`_phasor_blocks`),
+    instead of the m (m + 1) / 2 + m products of columns (m = 18 for four harmonics with
+    their t-columns). ``tc``: the samples' times from the middle, (n - (N - 1) / 2) / fs, as
+    the closed form takes them. None when :func:`_dirichlet_sums` is."""
+    kmax = max(ks)
+    rows, n = r.shape
+    sums = _dirichlet_sums(n, fs, f, 2 * kmax)
+    if sums is None:
+        return None
+    cos_s, sin_s = sums
+    rt = np.stack([np.ones(n), tc])
+    rsums = np.zeros((kmax, rows, 2, 2))
+    for i, z in _phasor_blocks(tc, f, kmax):
+        rsums += _sample_sums(z * r[:, i : i + z.shape[-1]], rt[:, i : i + z.shape[-1]])
+    rsums = rsums.transpose(1, 2, 0, 3)  # (rows, p, k, cos|sin)
+    cols = _columns(ks, derivative)
+    p, sn, k = (c[:, None] for c in cols.T)
+    q, sm, l_ = (c[None, :] for c in cols.T)
+    power, dif, tot = p + q, np.abs(k - l_), k + l_
+    sign = np.sign(l_ - k)
+    # cos cos: (C(k-l) + C(k+l)) / 2; sin sin: (C(k-l) - C(k+l)) / 2;
+    # cos_k sin_l: (S(k+l) + sign(l-k) S(|l-k|)) / 2
+    cc = (sn == 0) & (sm == 0)
+    ss = (sn == 1) & (sm == 1)
+    cs = (sn == 0) & (sm == 1)
+    sc = (sn == 1) & (sm == 0)
+    gram = 0.5 * np.where(
+        cc,
+        cos_s[:, power, dif] + cos_s[:, power, tot],
+        np.where(
+            ss,
+            cos_s[:, power, dif] - cos_s[:, power, tot],
+            np.where(
+                cs,
+                sin_s[:, power, tot] + sign * sin_s[:, power, dif],
+                np.where(sc, sin_s[:, power, tot] - sign * sin_s[:, power, dif], 0.0),
+            ),
+        ),
+    )
+    # design r: sums of r t^p (cos, sin)(k phi), p = 0, 1, k = 0..k_max
+    rc, rs = np.zeros((rows, 2, kmax + 1)), np.zeros((rows, 2, kmax + 1))
+    rc[:, 0, 0], rc[:, 1, 0] = r.sum(axis=1), (r * tc).sum(axis=1)
+    rc[:, :, 1:], rs[:, :, 1:] = rsums[..., 0], rsums[..., 1]
+    rhs = np.where(cols[:, 1] == 1, rs[:, cols[:, 0], cols[:, 2]], rc[:, cols[:, 0], cols[:, 2]])
+    return gram, rhs
+
+
+def harmonic_residual(
+    r: np.ndarray, tc: np.ndarray, f: np.ndarray, ks: list[int], sol: np.ndarray
+) -> np.ndarray:
+    """r minus the fit ``sol`` of :func:`harmonic_design` (without t-columns) at ``f``,
+    harmonics ``ks`` consecutive (those below 0.45 fs, as the analysis groups rows)."""
+    out = r - sol[:, 0, None] - sol[:, 1, None] * tc
+    # Re((a_k - i b_k) z^k) = a_k cos + b_k sin: the harmonics' coefficients as complex
+    c = (sol[:, 2::2] - 1j * sol[:, 3::2]).T[:, :, None]  # (k, rows, 1)
+    for i, z in _phasor_blocks(tc, f, ks[-1]):
+        out[:, i : i + z.shape[-1]] -= np.sum(z[ks[0] - 1 :] * c, axis=0).real
+    return out
+
+
+def refine_frequency(
+    r: np.ndarray, tc: np.ndarray, f: np.ndarray, ks: list[int], span: float, fs: float
+) -> np.ndarray:
+    """One Gauss-Newton step per row on the frequency of the harmonic fit (at most ``span``
+    from ``f``).
+
+    With cos(k(w + d)t) ~ cos(kwt) - k d t sin(kwt), the fitted t cos, t sin terms of harmonic k
+    are (k d b_k, -k d a_k); d is their least-squares ratio, weighted by k^2 |c_k|^2. One step
+    takes the spectrum's estimate (within ~1e-3 f_bp, inside the ~1 / T basin) to ~1e-6 f_bp on
+    a noise-free trace. Under noise the step is shrunk by d^2 / (d^2 + se^2), se its standard
+    error (24 sigma^2 / (N T^2 sum k^2 |c_k|^2))^(1/2): a step the noise could have made moves
+    little, so weak ripples keep the starting frequency instead of the noise's.
+    """
+    n = r.shape[1]
+    t_var = float(np.mean(tc * tc))
+    m = 2 + 4 * len(ks)
+    # the level (a column) taken out first: the residual sum of squares from the normal
+    # equations then cancels only the ripple's power, not the level's
+    r = r - r.mean(axis=1, keepdims=True)
+    eqs = harmonic_equations(tc, f, ks, r, True, fs)
+    sol = None if eqs is None else solve_normal(*eqs)
+    if sol is None:
+        sol, rhs = solve_rows(harmonic_design(tc, f, ks, derivative=True), r)
+    else:
+        rhs = eqs[1]
+    num, den = np.zeros(f.size), np.zeros(f.size)
+    for j, k in enumerate(ks):
+        a, b, p, q = sol[:, 2 + 4 * j : 6 + 4 * j].T
+        num += k * (p * b - q * a)
+        den += k * k * (a * a + b * b)
+    rss = np.maximum(np.einsum("ij,ij->i", r, r) - np.einsum("ij,ij->i", sol, rhs), 0.0)
+    sigma2 = rss / max(n - m, 1)
+    moves = (den > 0.0) & (t_var > 0.0)
+    safe = np.where(moves, den, 1.0)
+    d = num / safe
+    se2 = 2.0 * sigma2 / (n * t_var * safe) if t_var > 0.0 else np.zeros(f.size)
+    d2 = d * d
+    d = np.where(d2 + se2 > 0.0, d * d2 / np.where(d2 + se2 > 0.0, d2 + se2, 1.0), 0.0)
+    step = np.where(moves, d / (2.0 * math.pi), 0.0)
+    return np.clip(f + step, f - span, f + span)
