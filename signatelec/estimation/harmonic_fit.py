@@ -5,7 +5,9 @@ Rows are traces (or windows of one) sampled at ``tc``, the time from the middle 
 the design's columns are 1, t, cos and sin of 2 pi k f t for the fitted harmonics k [, and
 t cos, t sin for the frequency step]. Their normal equations are formed without the design
 (:func:`harmonic_equations`: closed-form Gram matrix, phasor sums for design r), the design
-itself only where a trace is too short or the equations singular.
+itself only where a trace is too short or the equations singular. The sums over the samples
+(design r, the residual) are numba passes over the phasors (``cache=True``: compiled once,
+~3 s, then loaded from the cache in ~0.3 s per process, as engines/dem/ensemble.py's kernels).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 #: Samples per block of the least-squares products: below the size at which OpenBLAS spreads a
 #: product over threads, which on busy cores makes it ~30x slower, not faster.
@@ -73,7 +76,7 @@ def solve_rows(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return sol, np.matmul(design, r[:, :, None])[:, :, 0]
 
 
-def _phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
+def phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
     """exp(2 pi i f[w] tc) per row, tc uniform: the product of a phasor over a block of
     sqrt(n) samples and one per block start (2 sqrt(n) complex exponentials per row instead
     of n; the phase of each factor is exact to round-off, as is their product)."""
@@ -92,8 +95,8 @@ def harmonic_design(
 ) -> np.ndarray:
     """Per row (frequency f[w]): columns 1, tc, cos and sin of 2 pi k f tc for k in ks
     [, tc cos, tc sin]; shape (rows, columns, samples). ``z1``: the phasors
-    :func:`_phasors` of ``tc`` and ``f``, when already known."""
-    z1 = _phasors(tc, f) if z1 is None else z1
+    :func:`phasors` of ``tc`` and ``f``, when already known."""
+    z1 = phasors(tc, f) if z1 is None else z1
     per = 4 if derivative else 2
     design = np.empty((f.size, 2 + per * len(ks), tc.size))
     design[:, 0] = 1.0
@@ -112,36 +115,56 @@ def harmonic_design(
     return design
 
 
-#: Samples per block of the phasor powers (powers, rows, samples): ~0.3 MB for ten rows and
-#: four powers, which stays in cache between their products and their sums.
-_POWER_BLOCK = 512
+@njit(cache=True, error_model="numpy")
+def _power_sums(z1: np.ndarray, r: np.ndarray, tc: np.ndarray, top: int) -> np.ndarray:
+    """sum over samples of r z^j and r tc z^j, j = 1..top, per row (z1: the phasors
+    :func:`phasors`): one pass over the samples, the powers by repeated products as
+    :func:`harmonic_design` forms them, row by row (a batch gives a row its numbers alone).
+    Shaped (rows, 2 (t^0, t^1), top, 2 (cos, sin))."""
+    rows, n = r.shape
+    out = np.zeros((rows, 2, top, 2))
+    acc = np.zeros((2, top, 2))
+    for w in range(rows):
+        acc[:] = 0.0
+        for i in range(n):
+            zr, zi = z1[w, i].real, z1[w, i].imag
+            a = r[w, i]
+            b = a * tc[i]
+            pr, pi = zr, zi
+            for j in range(top):
+                acc[0, j, 0] += a * pr
+                acc[0, j, 1] += a * pi
+                acc[1, j, 0] += b * pr
+                acc[1, j, 1] += b * pi
+                pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
+        out[w] = acc
+    return out
 
 
-def _phasor_blocks(tc: np.ndarray, f: np.ndarray, top: int):
-    """(start, z^j for j = 1..top) per block of :data:`_POWER_BLOCK` samples, z the phasors
-    (:func:`_phasors`) of ``tc`` and ``f``, the powers by repeated products as
-    :func:`harmonic_design` forms them; each block shaped (top, rows, samples)."""
-    z1 = _phasors(tc, f)
-    for i in range(0, tc.size, _POWER_BLOCK):
-        zb = z1[:, i : i + _POWER_BLOCK]
-        out = np.empty((top,) + zb.shape, dtype=complex)
-        out[0] = zb
-        for j in range(1, top):
-            np.multiply(out[j - 1], zb, out=out[j])
-        yield i, out
-
-
-def _sample_sums(z: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """sum over samples of weights[p] z (real and imaginary parts) for z (powers, rows,
-    samples): per row, one product of z's interleaved (re, im) with the weights spread over
-    both; shaped (powers, rows, p, 2). Each row's product is its own (a batch of rows gives a
-    row the numbers it gets alone: a product over rows together may sum in another order)."""
-    k, rows, b = z.shape
-    spread = np.zeros((b, 2, weights.shape[0], 2))
-    spread[:, 0, :, 0] = spread[:, 1, :, 1] = weights.T
-    zf = z.view(float).reshape(k, rows, 2 * b).transpose(1, 0, 2)
-    out = np.matmul(zf, spread.reshape(2 * b, -1))  # (rows, powers, 2 p)
-    return out.reshape(rows, k, weights.shape[0], 2).transpose(1, 0, 2, 3)
+@njit(cache=True, error_model="numpy")
+def _subtract_harmonics(
+    r: np.ndarray,
+    tc: np.ndarray,
+    z1: np.ndarray,
+    level: np.ndarray,
+    slope: np.ndarray,
+    c: np.ndarray,
+) -> np.ndarray:
+    """r - level - slope tc - sum_j Re(c[:, j] z^(j + 1)) per row, in one pass over the
+    samples (c: (rows, top), zero below the first fitted harmonic)."""
+    rows, n = r.shape
+    top = c.shape[1]
+    out = np.empty((rows, n))
+    for w in range(rows):
+        for i in range(n):
+            zr, zi = z1[w, i].real, z1[w, i].imag
+            pr, pi = zr, zi
+            s = 0.0
+            for j in range(top):
+                s += c[w, j].real * pr - c[w, j].imag * pi
+                pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
+            out[w, i] = r[w, i] - level[w] - slope[w] * tc[i] - s
+    return out
 
 
 def _columns(ks: list[int], derivative: bool) -> np.ndarray:
@@ -179,28 +202,31 @@ def _dirichlet_sums(n: int, fs: float, f: np.ndarray, top: int) -> tuple[np.ndar
 
 
 def harmonic_equations(
-    tc: np.ndarray, f: np.ndarray, ks: list[int], r: np.ndarray, derivative: bool, fs: float
+    tc: np.ndarray,
+    f: np.ndarray,
+    ks: list[int],
+    r: np.ndarray,
+    derivative: bool,
+    fs: float,
+    z1: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The normal equations (design design', design r) of :func:`harmonic_design` per row,
     without the design: every product of two columns t^p cos|sin(k phi) t^q cos|sin(l phi)
     is, by cos a cos b = (cos(a - b) + cos(a + b)) / 2 and its kin, a half sum of
     sum_n t^(p+q) cos|sin(j phi) for j = |k - l| and k + l, known in closed form
     (:func:`_dirichlet_sums`); design r needs the 4 k_max + 2 sums of r t^0..1 against the
-    phasor powers (formed and summed block by block of samples, :func:`_phasor_blocks`),
+    phasor powers (formed and summed in one compiled pass over the samples, :func:`_power_sums`),
     instead of the m (m + 1) / 2 + m products of columns (m = 18 for four harmonics with
     their t-columns). ``tc``: the samples' times from the middle, (n - (N - 1) / 2) / fs, as
-    the closed form takes them. None when :func:`_dirichlet_sums` is."""
+    the closed form takes them. ``z1``: the phasors :func:`phasors` of ``tc`` and ``f``, when
+    already known. None when :func:`_dirichlet_sums` is."""
     kmax = max(ks)
     rows, n = r.shape
     sums = _dirichlet_sums(n, fs, f, 2 * kmax)
     if sums is None:
         return None
     cos_s, sin_s = sums
-    rt = np.stack([np.ones(n), tc])
-    rsums = np.zeros((kmax, rows, 2, 2))
-    for i, z in _phasor_blocks(tc, f, kmax):
-        rsums += _sample_sums(z * r[:, i : i + z.shape[-1]], rt[:, i : i + z.shape[-1]])
-    rsums = rsums.transpose(1, 2, 0, 3)  # (rows, p, k, cos|sin)
+    rsums = _power_sums(phasors(tc, f) if z1 is None else z1, r, tc, kmax)
     cols = _columns(ks, derivative)
     p, sn, k = (c[:, None] for c in cols.T)
     q, sm, l_ = (c[None, :] for c in cols.T)
@@ -234,16 +260,21 @@ def harmonic_equations(
 
 
 def harmonic_residual(
-    r: np.ndarray, tc: np.ndarray, f: np.ndarray, ks: list[int], sol: np.ndarray
+    r: np.ndarray,
+    tc: np.ndarray,
+    f: np.ndarray,
+    ks: list[int],
+    sol: np.ndarray,
+    z1: np.ndarray | None = None,
 ) -> np.ndarray:
     """r minus the fit ``sol`` of :func:`harmonic_design` (without t-columns) at ``f``,
-    harmonics ``ks`` consecutive (those below 0.45 fs, as the analysis groups rows)."""
-    out = r - sol[:, 0, None] - sol[:, 1, None] * tc
+    harmonics ``ks`` consecutive (those below 0.45 fs, as the analysis groups rows); ``z1``:
+    the phasors :func:`phasors` of ``tc`` and ``f``, when already known."""
     # Re((a_k - i b_k) z^k) = a_k cos + b_k sin: the harmonics' coefficients as complex
-    c = (sol[:, 2::2] - 1j * sol[:, 3::2]).T[:, :, None]  # (k, rows, 1)
-    for i, z in _phasor_blocks(tc, f, ks[-1]):
-        out[:, i : i + z.shape[-1]] -= np.sum(z[ks[0] - 1 :] * c, axis=0).real
-    return out
+    c = np.zeros((f.size, ks[-1]), dtype=complex)
+    c[:, ks[0] - 1 :] = sol[:, 2::2] - 1j * sol[:, 3::2]
+    z1 = phasors(tc, f) if z1 is None else z1
+    return _subtract_harmonics(r, tc, z1, sol[:, 0].copy(), sol[:, 1].copy(), c)
 
 
 def refine_frequency(
