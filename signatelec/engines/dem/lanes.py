@@ -28,6 +28,7 @@ P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT, P_LOB
         "gravity_m_s2", "friction_coefficient", "max_overlap_fraction", "lobe_amplitude_m",
     )
 )  # fmt: skip
+P_CAGE_M, P_CAGE_I = PARAM_ROWS["rigid_cage_mass_kg"], PARAM_ROWS["rigid_cage_inertia_kg_m2"]
 P_NCOEF = PARAM_ROWS["normal_coefficient"]  # 6 rows each, by contact type; then 2 by raceway
 P_NDAMP, P_TSTIFF, P_TDAMP = (
     PARAM_ROWS[f"{name}_factor"]
@@ -133,7 +134,8 @@ def copy_rows(W, w_row, rec, i, rec_row, n_rows, lane, lanes):
 
 @njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
 def kinetic_energy(W, lane, lanes, balls, vel_row, spin_row):
-    """:func:`.primitives.kinetic_energy` of one lane (its rigid-cage terms are 0 here), J."""
+    """:func:`.primitives.kinetic_energy` of one lane, J (the cage balls' or the rigid cage's:
+    the other's mass is 0)."""
     mb = W[P_MB * lanes + lane]
     ib = W[P_IB * lanes + lane]
     mc = W[P_MC * lanes + lane]
@@ -144,6 +146,9 @@ def kinetic_energy(W, lane, lanes, balls, vel_row, spin_row):
         * W[P_MI * lanes + lane]
         * (W[v + 2 * ring * lanes] ** 2 + W[v + (2 * ring + 1) * lanes] ** 2)
     )
+    cage = v + 2 * balls * lanes  # the rigid cage's centre, then its angle
+    e += 0.5 * W[P_CAGE_M * lanes + lane] * (W[cage] ** 2 + W[cage + lanes] ** 2)
+    e += 0.5 * W[P_CAGE_I * lanes + lane] * W[cage + 2 * lanes] ** 2
     for k in range(balls):
         e += 0.5 * mb * (W[v + 2 * k * lanes] ** 2 + W[v + (2 * k + 1) * lanes] ** 2)
         e += 0.5 * ib * W[(spin_row + k) * lanes + lane] ** 2
