@@ -83,7 +83,7 @@ _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 (
     NB, N2, RING, POS, VEL, ACC, ACC_NEW, SPIN, SPIN_ACC, SPIN_OLD, XI, ROT, ROOTS, FCON, SCHED,
     ENERGY_ROW, STATUS, FLAG, RATE, TIME, PHI, RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC,
-    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, ROWS,
+    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, POCKET, ROWS,
 ) = work_rows(BALLS)  # fmt: skip
 REC_TIME, REC_POS, REC_SPIN, REC_FCON, REC_SCHED, REC_ENERGY, REC_ROT, REC_ROWS = record_rows(BALLS)
 #: Geometry with defects or lobes: a contact's overlap may be <= 0 (a ball over a spall).
@@ -234,7 +234,7 @@ def forces(step, PR, W):
             _cage_ball_lanes(j, j + 1, j > 0, False, W)
         _cage_ball_lanes(BALLS - 1, 0, True, True, W)
     if CAGE_RIGID:
-        _rigid_cage_lanes(PR, W)
+        _rigid_cage_lanes(W)
     if CAGE_NONE:  # ball k + 1 on ball k
         for k in range(BALLS - 1):
             _pair_lanes(k + 1, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W, 0)

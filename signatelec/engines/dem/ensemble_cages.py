@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import math
 
+from signatelec.engines.dem.lanes import P_CAGE_I, P_CAGE_M, P_GAP, P_STEP_COS, P_STEP_SIN
 from signatelec.engines.dem.primitives import inline, rsqrt_next
 from signatelec.engines.dem.records import R_SIDE0, R_SIDE1, R_WALL
 
 #: The ensemble kernel's constants the cages' contacts read.
 CONSTANTS = (
     "LANES", "BALLS", "ENERGY", "GRAVITY_STANDARD", "POS", "VEL", "ACC_NEW", "ROOTS", "FCON",
-    "LOSS", "ELASTIC", "INV_MB", "INV_MC", "P_RB", "P_RC", "P_RP", "P_G", "P_MC", "P_LIMIT",
+    "LOSS", "ELASTIC", "INV_MB", "INV_MC", "POCKET", "P_RB", "P_RC", "P_RP", "P_G", "P_MC",
+    "P_LIMIT",
 )  # fmt: skip
 
 
@@ -28,7 +30,7 @@ def cage_contacts(constants: dict, normal_lane):
     constants are ``constants`` (its globals: :data:`CONSTANTS`) and normal law ``normal_lane``."""
     (
         LANES, BALLS, ENERGY, GRAVITY_STANDARD, POS, VEL, ACC_NEW, ROOTS, FCON, LOSS, ELASTIC,
-        INV_MB, INV_MC, P_RB, P_RC, P_RP, P_G, P_MC, P_LIMIT,
+        INV_MB, INV_MC, POCKET, P_RB, P_RC, P_RP, P_G, P_MC, P_LIMIT,
     ) = (constants[name] for name in CONSTANTS)  # fmt: skip
 
     @inline
@@ -111,37 +113,34 @@ def cage_contacts(constants: dict, normal_lane):
             W[fcon_row * LANES + lane] = fn
 
     @inline
-    def rigid_cage_lanes(PR, W):
+    def rigid_cage_lanes(W):
         """The rigid cage (centre in body row BALLS, angle of pocket 0 in row BALLS + 1) on its
         balls, every lane: ball k in its pocket (a sphere of radius R_b + gap centred at
         c + r_p u_k) pushed back when its centre is more than the gap from the pocket centre,
         contact type 5, frictionless; the cage's acceleration and angular acceleration. As
-        :func:`.kernel.forces` (CAGE_RIGID), u_k rotated from u_0 pocket by pocket: a lane's
-        loop over the balls is scalar code, its trigonometry once a lane."""
+        :func:`.kernel.forces` (CAGE_RIGID): u_k rotated from u_0 pocket by pocket (rows
+        POCKET), the forces gathered in rows POCKET + 2..4; a lane loop per ball."""
         cage = (POS + 2 * BALLS) * LANES
         vcage = (VEL + 2 * BALLS) * LANES
-        for lane in range(LANES):
-            p = PR[lane]
-            rp = W[P_RP * LANES + lane]
-            ball_limit = W[P_LIMIT * LANES + lane] * W[P_RB * LANES + lane]
-            gap = p.pocket_gap_m
-            ccx = W[cage + lane]
-            ccy = W[cage + LANES + lane]
-            vcx = W[vcage + lane]
-            vcy = W[vcage + LANES + lane]
+        for lane in range(LANES):  # u_0, from the cage angle, and the cage's weight
             theta = W[cage + 2 * LANES + lane]
-            wc = W[vcage + 2 * LANES + lane]
-            ux = math.sin(theta)
-            uy = -math.cos(theta)
+            W[POCKET * LANES + lane] = math.sin(theta)
+            W[(POCKET + 1) * LANES + lane] = -math.cos(theta)
             g = W[P_G * LANES + lane] if GRAVITY_STANDARD else 0.0
-            cage_fx = 0.0
-            cage_fy = -p.rigid_cage_mass_kg * g
-            cage_torque = 0.0
-            for k in range(BALLS):
+            W[(POCKET + 2) * LANES + lane] = 0.0
+            W[(POCKET + 3) * LANES + lane] = -W[P_CAGE_M * LANES + lane] * g
+            W[(POCKET + 4) * LANES + lane] = 0.0
+        for k in range(BALLS):
+            for lane in range(LANES):
+                rp = W[P_RP * LANES + lane]
+                gap = W[P_GAP * LANES + lane]
+                ux = W[POCKET * LANES + lane]
+                uy = W[(POCKET + 1) * LANES + lane]
+                wc = W[vcage + 2 * LANES + lane]
                 ox = rp * ux
                 oy = rp * uy
-                dx = W[(POS + 2 * k) * LANES + lane] - (ccx + ox)
-                dy = W[(POS + 2 * k + 1) * LANES + lane] - (ccy + oy)
+                dx = W[(POS + 2 * k) * LANES + lane] - (W[cage + lane] + ox)
+                dy = W[(POS + 2 * k + 1) * LANES + lane] - (W[cage + LANES + lane] + oy)
                 d2 = dx * dx + dy * dy
                 inside = d2 > gap * gap
                 at = (ROOTS + 20 * k + R_SIDE0) * LANES + lane
@@ -151,10 +150,11 @@ def cage_contacts(constants: dict, normal_lane):
                 nx = dx * inv
                 ny = dy * inv
                 # closing: ball centre away from the pocket centre (a cage point: v_c + w x r)
-                vx = W[(VEL + 2 * k) * LANES + lane] - vcx + wc * oy
-                vy = W[(VEL + 2 * k + 1) * LANES + lane] - vcy - wc * ox
+                vx = W[(VEL + 2 * k) * LANES + lane] - W[vcage + lane] + wc * oy
+                vy = W[(VEL + 2 * k + 1) * LANES + lane] - W[vcage + LANES + lane] - wc * ox
                 fn, rd, qd, dloss, de = normal_lane(
-                    d2 * inv - gap, vx * nx + vy * ny, 5, ball_limit, k, inside, W, lane,
+                    d2 * inv - gap, vx * nx + vy * ny, 5,
+                    W[P_LIMIT * LANES + lane] * W[P_RB * LANES + lane], k, inside, W, lane,
                     ROOTS + 20 * k + R_SIDE0 + 1,
                 )  # fmt: skip
                 if ENERGY:
@@ -164,16 +164,20 @@ def cage_contacts(constants: dict, normal_lane):
                 fy = fn * ny if inside else 0.0
                 W[(ACC_NEW + 2 * k) * LANES + lane] -= fx
                 W[(ACC_NEW + 2 * k + 1) * LANES + lane] -= fy
-                cage_fx += fx
-                cage_fy += fy
-                cage_torque += fn * (ox * ny - oy * nx) if inside else 0.0
+                W[(POCKET + 2) * LANES + lane] += fx
+                W[(POCKET + 3) * LANES + lane] += fy
+                W[(POCKET + 4) * LANES + lane] += fn * (ox * ny - oy * nx) if inside else 0.0
                 W[(FCON + 6 * k + 4) * LANES + lane] = fn if inside else 0.0
-                step_c, step_s = p.pocket_step_cos, p.pocket_step_sin
-                ux, uy = ux * step_c - uy * step_s, uy * step_c + ux * step_s
+                step_c = W[P_STEP_COS * LANES + lane]
+                step_s = W[P_STEP_SIN * LANES + lane]
+                W[POCKET * LANES + lane] = ux * step_c - uy * step_s
+                W[(POCKET + 1) * LANES + lane] = uy * step_c + ux * step_s
+        for lane in range(LANES):
             acc = (ACC_NEW + 2 * BALLS) * LANES + lane
-            W[acc] = cage_fx / p.rigid_cage_mass_kg
-            W[acc + LANES] = cage_fy / p.rigid_cage_mass_kg
-            W[acc + 2 * LANES] = cage_torque / p.rigid_cage_inertia_kg_m2
+            mass = W[P_CAGE_M * LANES + lane]
+            W[acc] = W[(POCKET + 2) * LANES + lane] / mass
+            W[acc + LANES] = W[(POCKET + 3) * LANES + lane] / mass
+            W[acc + 2 * LANES] = W[(POCKET + 4) * LANES + lane] / W[P_CAGE_I * LANES + lane]
             W[acc + 3 * LANES] = 0.0
 
     return cage_ball_lanes, pair_lanes, rigid_cage_lanes
