@@ -34,6 +34,13 @@ def cage_contacts(constants: dict, normal_lane):
     ) = (constants[name] for name in CONSTANTS)  # fmt: skip
 
     @inline
+    def add_energy(W, lane, loss, elastic):
+        """A contact's damping loss and elastic energy into this force evaluation's sums."""
+        if ENERGY:
+            W[LOSS * LANES + lane] += loss
+            W[ELASTIC * LANES + lane] += elastic
+
+    @inline
     def cage_ball_lanes(j, nxt, last_j, last_nxt, W):
         """Cage ball j on its boundaries, balls j and ``nxt`` (j + 1); a lane loop per contact.
         ``last_j``, ``last_nxt``: that contact is the ball's last (its F / m follows)."""
@@ -63,9 +70,7 @@ def cage_contacts(constants: dict, normal_lane):
                 abs(ov), vclose, 3, W[P_LIMIT * LANES + lane] * rc, c, on, W, lane,
                 ROOTS + 20 * j + R_WALL + 1,
             )  # fmt: skip
-            if ENERGY:
-                W[LOSS * LANES + lane] += dloss
-                W[ELASTIC * LANES + lane] += de
+            add_energy(W, lane, dloss, de)
             W[(ACC_NEW + 2 * c) * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
             W[(ACC_NEW + 2 * c + 1) * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
         # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
@@ -99,9 +104,7 @@ def cage_contacts(constants: dict, normal_lane):
                 reach - d2 * inv, vclose, kind, W[P_LIMIT * LANES + lane] * radius, body, inside,
                 W, lane, root_row + 1,
             )  # fmt: skip
-            if ENERGY:
-                W[LOSS * LANES + lane] += dloss
-                W[ELASTIC * LANES + lane] += de
+            add_energy(W, lane, dloss, de)
             fx = fn * nx if inside else 0.0
             fy = fn * ny if inside else 0.0
             inv_a = W[INV_MC * LANES + lane] if last & 2 else 1.0
@@ -157,9 +160,7 @@ def cage_contacts(constants: dict, normal_lane):
                     W[P_LIMIT * LANES + lane] * W[P_RB * LANES + lane], k, inside, W, lane,
                     ROOTS + 20 * k + R_SIDE0 + 1,
                 )  # fmt: skip
-                if ENERGY:
-                    W[LOSS * LANES + lane] += dloss
-                    W[ELASTIC * LANES + lane] += de
+                add_energy(W, lane, dloss, de)
                 fx = fn * nx if inside else 0.0
                 fy = fn * ny if inside else 0.0
                 W[(ACC_NEW + 2 * k) * LANES + lane] -= fx
