@@ -301,16 +301,14 @@ def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
 
 def batched(ctx: TraceContext) -> bool:
     """Whether the spec's traces run through the ensemble kernel (:func:`run_traces`): DEM
-    traces whose kernel it carries (signatelec.engines.dem.batch.refusal)."""
-    from signatelec.engines.dem.batch import refusal
-    from signatelec.engines.dem.spec import KernelSpec
+    traces (the ensemble kernel carries every effect of the single-scene one)."""
     from signatelec.engines.fidelity import apply_fidelity
 
     try:
         scene = apply_fidelity(ctx.scene, ctx.fidelity)
     except SceneError:
         return False
-    return scene.numerics.fidelity == "dem" and refusal(KernelSpec.from_scene(scene)) is None
+    return scene.numerics.fidelity == "dem"
 
 
 def run_traces(ctx: TraceContext, tasks: list[TraceTask]) -> list[dict]:

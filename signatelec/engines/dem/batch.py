@@ -33,17 +33,6 @@ from signatelec.engines.results import DivergenceError, SimulationResult
 
 #: Scenes per lane group: 8 float64 lanes fill one AVX-512 register.
 LANES = 8
-#: What the ensemble kernel does not carry (the single-scene kernel does), by kernel flag.
-NOT_CARRIED = {"CAGE_RIGID": 'effects.cage = "rigid"'}
-
-
-def refusal(spec: KernelSpec) -> str | None:
-    """Why the ensemble kernel cannot run scenes of ``spec`` (one line), or None."""
-    flags = spec.flags()
-    missing = [what for flag, what in NOT_CARRIED.items() if flags[flag]]
-    if missing:
-        return f"the ensemble kernel does not carry {', '.join(missing)}; run it with simulate()"
-    return None
 
 
 def _pack(lanes: int, scenes: list[Scene], kern):
@@ -138,11 +127,10 @@ def simulate_batch(
     """Simulate DEM ``scenes`` (``numerics.fidelity = "dem"``) through the ensemble kernel,
     ``lanes`` scenes per lane group; one :class:`SimulationResult` per scene, in order.
 
-    Raises :class:`SceneError` (one line) for a scene the ensemble kernel does not carry
-    (:func:`refusal`), that the run limits refuse or whose dt is above its stability limit,
-    before anything runs; a :class:`DivergenceError` for a scene that diverges (its message
-    names the step, body and contact; no cure is probed) or, with ``return_exceptions``, the
-    error in that scene's place.
+    Raises :class:`SceneError` (one line) for a scene that the run limits refuse or whose dt is
+    above its stability limit, before anything runs; a :class:`DivergenceError` for a scene
+    that diverges (its message names the step, body and contact; no cure is probed) or, with
+    ``return_exceptions``, the error in that scene's place.
     """
     from signatelec.engines.budget import check_run
 
@@ -157,9 +145,6 @@ def simulate_batch(
         check_run(scene)
         limits.append(checked_limit(scene))
         spec = KernelSpec.from_scene(scene)
-        why = refusal(spec)
-        if why:
-            raise SceneError(why)
         groups[(spec, scene.bearing.n_balls)].append(i)
     results: list = [None] * len(scenes)
     for (spec, _), members in groups.items():

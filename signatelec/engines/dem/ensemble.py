@@ -10,6 +10,8 @@ branch. The physics is that of :mod:`.kernel`, in the same order and with the sa
 the unbalance, the local surface of defects and lobes from physics.defects); the schedule, with
 its cosines, and the local surface, with its loop over the defects, run per lane from ``PR``,
 the lanes' parameter records (a defect's geometry is a scene's own: each lane reads its table).
+The cages' contacts (cage balls, ball on ball, the rigid cage's pockets) are
+those of :mod:`.ensemble_cages`, made for this kernel's constants and compiled into it.
 """
 
 # fmt: off
@@ -40,6 +42,7 @@ import math
 
 from numba import njit
 
+from signatelec.engines.dem.ensemble_cages import cage_contacts
 from signatelec.engines.dem.lanes import (
     PARAMETER_ROWS,
     check_finite,
@@ -62,7 +65,7 @@ from signatelec.engines.dem.primitives import (
     scheduled_load,
     unbalance_force,
 )
-from signatelec.engines.dem.records import OK, OVERLAP, R_INNER, R_OUTER, R_SIDE0, R_SIDE1, R_WALL
+from signatelec.engines.dem.records import OK, OVERLAP, R_INNER, R_OUTER, R_SIDE0
 from signatelec.physics import contact as _contact
 from signatelec.physics.defect_geometry import INNER_SIDE, OUTER_SIDE
 
@@ -80,7 +83,7 @@ _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 (
     NB, N2, RING, POS, VEL, ACC, ACC_NEW, SPIN, SPIN_ACC, SPIN_OLD, XI, ROT, ROOTS, FCON, SCHED,
     ENERGY_ROW, STATUS, FLAG, RATE, TIME, PHI, RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC,
-    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, ROWS,
+    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, POCKET, ROWS,
 ) = work_rows(BALLS)  # fmt: skip
 REC_TIME, REC_POS, REC_SPIN, REC_FCON, REC_SCHED, REC_ENERGY, REC_ROT, REC_ROWS = record_rows(BALLS)
 #: Geometry with defects or lobes: a contact's overlap may be <= 0 (a ball over a spall).
@@ -162,6 +165,10 @@ def tangential_lane(k, side, root, quarter, slip_speed, fn, W, lane, inside):
     return ft
 
 
+# The cages' contacts (.ensemble_cages), made for this kernel's constants and normal law.
+_cage_ball_lanes, _pair_lanes, _rigid_cage_lanes = cage_contacts(globals(), normal_lane)
+
+
 @_entry
 def forces(step, PR, W):
     """The new accelerations (rows ACC_NEW, SPIN_ACC) of every lane at its time (step + T_SHIFT)
@@ -208,6 +215,8 @@ def forces(step, PR, W):
                         p.ball_mass_kg * W[(VEL + 2 * k + 1) * LANES + lane]
                         + p.cage_ball_mass_kg * W[(VEL + 2 * (BALLS + k) + 1) * LANES + lane]
                     )
+                if CAGE_RIGID:
+                    wsum += p.rigid_cage_mass_kg * W[(VEL + 2 * BALLS + 1) * LANES + lane]
                 work += -g * wsum * dt
         W[WORK * LANES + lane] = work
     for lane in range(LANES):  # a vector division each, not one per body and lane
@@ -224,6 +233,8 @@ def forces(step, PR, W):
         for j in range(BALLS - 1):
             _cage_ball_lanes(j, j + 1, j > 0, False, W)
         _cage_ball_lanes(BALLS - 1, 0, True, True, W)
+    if CAGE_RIGID:
+        _rigid_cage_lanes(W)
     if CAGE_NONE:  # ball k + 1 on ball k
         for k in range(BALLS - 1):
             _pair_lanes(k + 1, k, 4, P_RB, k, ROOTS + 20 * k + R_SIDE0, FCON + 6 * k + 4, W, 0)
@@ -404,87 +415,6 @@ def _ball_lanes(k, PR, W):
         W[(ACC_NEW + 2 * k) * LANES + lane] = ball_fx
         W[(ACC_NEW + 2 * k + 1) * LANES + lane] = ball_fy
         W[(SPIN_ACC + k) * LANES + lane] = torque / W[P_IB * LANES + lane]  # as kernel.py's
-
-
-@inline
-def _cage_ball_lanes(j, nxt, last_j, last_nxt, W):
-    """Cage ball j on its boundaries, balls j and ``nxt`` (j + 1); a lane loop per contact.
-    ``last_j``, ``last_nxt``: that contact is the ball's last (its F / m follows)."""
-    c = BALLS + j
-    cx_at = (POS + 2 * c) * LANES
-    vc = (VEL + 2 * c) * LANES
-    at_wall = (ROOTS + 20 * j + R_WALL) * LANES
-    for lane in range(LANES):
-        rc = W[P_RC * LANES + lane]
-        rp = W[P_RP * LANES + lane]
-        g = W[P_G * LANES + lane] if GRAVITY_STANDARD else 0.0
-        cx = W[cx_at + lane]
-        cy = W[cx_at + LANES + lane]
-        cage_fx = 0.0
-        cage_fy = -W[P_MC * LANES + lane] * g
-        # cage ball / its two boundaries at r_p -+ r_c (table 2 "cage/cage")
-        r2 = cx * cx + cy * cy
-        inv = rsqrt_next(r2, W[at_wall + lane])
-        W[at_wall + lane] = inv
-        nx = cx * inv
-        ny = cy * inv
-        ov = r2 * inv - rp
-        on = ov != 0.0
-        sgn = 1.0 if ov > 0.0 else -1.0
-        vclose = sgn * (W[vc + lane] * nx + W[vc + LANES + lane] * ny)
-        fn, rd, qd, dloss, de = normal_lane(
-            abs(ov), vclose, 3, W[P_LIMIT * LANES + lane] * rc, c, on, W, lane,
-            ROOTS + 20 * j + R_WALL + 1,
-        )  # fmt: skip
-        if ENERGY:
-            W[LOSS * LANES + lane] += dloss
-            W[ELASTIC * LANES + lane] += de
-        W[(ACC_NEW + 2 * c) * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
-        W[(ACC_NEW + 2 * c + 1) * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
-    # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
-    root = ROOTS + 20 * j
-    _pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W, 1 if last_j else 0)
-    _pair_lanes(c, nxt, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W, 3 if last_nxt else 2)
-
-
-@inline
-def _pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W, last):
-    """Body a (cage ball or ball, radius at ``radius_row``) on ball b, frictionless, every
-    lane: the force on a added to its row of ACC_NEW, its opposite to b's (a cage ball on a
-    ball, or ball k + 1 on ball k without a cage); then F / m of cage ball a if ``last`` & 2,
-    of ball b if ``last`` & 1."""
-    for lane in range(LANES):
-        radius = W[radius_row * LANES + lane]
-        reach = W[P_RB * LANES + lane] + radius
-        dx = W[(POS + 2 * a) * LANES + lane] - W[(POS + 2 * b) * LANES + lane]
-        dy = W[(POS + 2 * a + 1) * LANES + lane] - W[(POS + 2 * b + 1) * LANES + lane]
-        d2 = dx * dx + dy * dy
-        inside = d2 < reach * reach
-        at = root_row * LANES + lane
-        inv_old = W[at]
-        inv = rsqrt_next(d2, inv_old)
-        W[at] = inv if inside else inv_old
-        nx = dx * inv
-        ny = dy * inv
-        rvx = W[(VEL + 2 * a) * LANES + lane] - W[(VEL + 2 * b) * LANES + lane]
-        rvy = W[(VEL + 2 * a + 1) * LANES + lane] - W[(VEL + 2 * b + 1) * LANES + lane]
-        vclose = -(rvx * nx + rvy * ny)
-        fn, rd, qd, dloss, de = normal_lane(
-            reach - d2 * inv, vclose, kind, W[P_LIMIT * LANES + lane] * radius, body, inside, W,
-            lane, root_row + 1,
-        )  # fmt: skip
-        if ENERGY:
-            W[LOSS * LANES + lane] += dloss
-            W[ELASTIC * LANES + lane] += de
-        fx = fn * nx if inside else 0.0
-        fy = fn * ny if inside else 0.0
-        inv_a = W[INV_MC * LANES + lane] if last & 2 else 1.0
-        inv_b = W[INV_MB * LANES + lane] if last & 1 else 1.0
-        at_a = (ACC_NEW + 2 * a) * LANES + lane
-        at_b = (ACC_NEW + 2 * b) * LANES + lane
-        W[at_a], W[at_a + LANES] = (W[at_a] + fx) * inv_a, (W[at_a + LANES] + fy) * inv_a
-        W[at_b], W[at_b + LANES] = (W[at_b] - fx) * inv_b, (W[at_b + LANES] - fy) * inv_b
-        W[fcon_row * LANES + lane] = fn
 
 
 @njit(error_model="numpy", _nrt=False)

@@ -28,6 +28,13 @@ P_DT, P_RB, P_RC, P_RIN, P_RP, P_MB, P_IB, P_MC, P_MI, P_G, P_MU, P_LIMIT, P_LOB
         "gravity_m_s2", "friction_coefficient", "max_overlap_fraction", "lobe_amplitude_m",
     )
 )  # fmt: skip
+P_CAGE_M, P_CAGE_I, P_GAP, P_STEP_COS, P_STEP_SIN = (
+    PARAM_ROWS[name]
+    for name in (
+        "rigid_cage_mass_kg", "rigid_cage_inertia_kg_m2", "pocket_gap_m", "pocket_step_cos",
+        "pocket_step_sin",
+    )
+)  # fmt: skip
 P_NCOEF = PARAM_ROWS["normal_coefficient"]  # 6 rows each, by contact type; then 2 by raceway
 P_NDAMP, P_TSTIFF, P_TDAMP = (
     PARAM_ROWS[f"{name}_factor"]
@@ -78,6 +85,7 @@ class WorkRows(NamedTuple):
     COUNTDOWN: int  # steps to its next recorded one
     REC_INDEX: int  # its next free recorded instant
     SURF: int  # 3: under the ball of this contact loop, the inner drop, lobes, outer drop
+    POCKET: int  # 5: the rigid cage's pocket direction u_k (x, y), its force (x, y), torque
     ROWS: int  # the total
 
 
@@ -90,7 +98,7 @@ def work_rows(balls: int) -> WorkRows:
         "ROOTS": 20 * balls, "FCON": 6 * balls, "SCHED": 4, "ENERGY_ROW": 4, "STATUS": 4,
         "FLAG": 1, "RATE": 1, "TIME": 1, "PHI": 1, "RING_FX": 1, "RING_FY": 1, "DRIVE": 1,
         "LOSS": 1, "WORK": 1, "ELASTIC": 1, "INV_MB": 1, "INV_MC": 1, "DTS": 2 * nb,
-        "EVERY": 1, "COUNTDOWN": 1, "REC_INDEX": 1, "SURF": 3,
+        "EVERY": 1, "COUNTDOWN": 1, "REC_INDEX": 1, "SURF": 3, "POCKET": 5,
     }  # fmt: skip
     rows = {"NB": nb, "N2": 2 * nb, "RING": 2 * balls}
     row = PARAM_ROWS["_total"]
@@ -133,7 +141,8 @@ def copy_rows(W, w_row, rec, i, rec_row, n_rows, lane, lanes):
 
 @njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
 def kinetic_energy(W, lane, lanes, balls, vel_row, spin_row):
-    """:func:`.primitives.kinetic_energy` of one lane (its rigid-cage terms are 0 here), J."""
+    """:func:`.primitives.kinetic_energy` of one lane, J (the cage balls' or the rigid cage's:
+    the other's mass is 0)."""
     mb = W[P_MB * lanes + lane]
     ib = W[P_IB * lanes + lane]
     mc = W[P_MC * lanes + lane]
@@ -144,6 +153,9 @@ def kinetic_energy(W, lane, lanes, balls, vel_row, spin_row):
         * W[P_MI * lanes + lane]
         * (W[v + 2 * ring * lanes] ** 2 + W[v + (2 * ring + 1) * lanes] ** 2)
     )
+    cage = v + 2 * balls * lanes  # the rigid cage's centre, then its angle
+    e += 0.5 * W[P_CAGE_M * lanes + lane] * (W[cage] ** 2 + W[cage + lanes] ** 2)
+    e += 0.5 * W[P_CAGE_I * lanes + lane] * W[cage + 2 * lanes] ** 2
     for k in range(balls):
         e += 0.5 * mb * (W[v + 2 * k * lanes] ** 2 + W[v + (2 * k + 1) * lanes] ** 2)
         e += 0.5 * ib * W[(spin_row + k) * lanes + lane] ** 2
