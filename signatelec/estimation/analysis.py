@@ -28,7 +28,7 @@ from signatelec.estimation.harmonic_fit import (
     harmonic_design,
     harmonic_equations,
     harmonic_residual,
-    phasors,
+    phasor_factors,
     refine_frequency,
     solve_normal,
     solve_rows,
@@ -486,15 +486,15 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
         sol = None
         if n >= 4 * (2 + 2 * len(ks)):
-            z1 = phasors(tc, f_bp[idx])
-            eqs = harmonic_equations(tc, f_bp[idx], list(ks), x[idx], False, fs, z1)
+            factors = phasor_factors(tc, f_bp[idx])
+            eqs = harmonic_equations(tc, f_bp[idx], list(ks), x[idx], False, fs, factors)
             sol = None if eqs is None else solve_normal(*eqs)
         if sol is None:
             design = harmonic_design(tc, f_bp[idx], list(ks), derivative=False)
             sol = solve_rows(design, x[idx])[0]
             residual[idx] = x[idx] - apply_design(design, sol)
         else:
-            residual[idx] = harmonic_residual(x[idx], tc, f_bp[idx], list(ks), sol, z1)
+            residual[idx] = harmonic_residual(x[idx], tc, f_bp[idx], list(ks), sol, factors)
         level[idx], slope[idx] = sol[:, 0], sol[:, 1]
         for j, k in enumerate(ks):
             coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]

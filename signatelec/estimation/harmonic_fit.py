@@ -76,6 +76,18 @@ def solve_rows(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return sol, np.matmul(design, r[:, :, None])[:, :, 0]
 
 
+def phasor_factors(tc: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(block starts, within a block) of :func:`phasors`: exp(2 pi i f[w] tc) per row, tc
+    uniform, is ``starts[w, b] * within[w, j]`` at sample b B + j (B ~ sqrt(n) samples a
+    block); the compiled passes form the product sample by sample instead of reading it."""
+    n = tc.size
+    dt = tc[1] - tc[0] if n > 1 else 0.0
+    block = max(1, int(math.isqrt(n)))
+    within = np.exp(2j * math.pi * f[:, None] * (tc[0] + dt * np.arange(block)))
+    starts = np.exp(2j * math.pi * f[:, None] * (dt * block * np.arange(-(-n // block))))
+    return starts, within
+
+
 def phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
     """exp(2 pi i f[w] tc) per row, tc uniform: the product of a phasor over a block of
     sqrt(n) samples and one per block start (2 sqrt(n) complex exponentials per row instead
@@ -83,10 +95,7 @@ def phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
     n = tc.size
     if n < 2:
         return np.exp(2j * math.pi * f[:, None] * tc)
-    dt = tc[1] - tc[0]
-    block = max(1, int(math.isqrt(n)))
-    within = np.exp(2j * math.pi * f[:, None] * (tc[0] + dt * np.arange(block)))
-    starts = np.exp(2j * math.pi * f[:, None] * (dt * block * np.arange(-(-n // block))))
+    starts, within = phasor_factors(tc, f)
     return (starts[:, :, None] * within[:, None, :]).reshape(f.size, -1)[:, :n]
 
 
@@ -116,27 +125,31 @@ def harmonic_design(
 
 
 @njit(cache=True, error_model="numpy")
-def _power_sums(z1: np.ndarray, r: np.ndarray, tc: np.ndarray, top: int) -> np.ndarray:
-    """sum over samples of r z^j and r tc z^j, j = 1..top, per row (z1: the phasors
-    :func:`phasors`): one pass over the samples, the powers by repeated products as
-    :func:`harmonic_design` forms them, row by row (a batch gives a row its numbers alone).
-    Shaped (rows, 2 (t^0, t^1), top, 2 (cos, sin))."""
+def _power_sums(starts, within, r: np.ndarray, tc: np.ndarray, top: int) -> np.ndarray:
+    """sum over samples of r z^j and r tc z^j, j = 1..top, per row (z: the phasors
+    :func:`phasors`, formed from their factors :func:`phasor_factors`): one pass over the
+    samples, the powers by repeated products as :func:`harmonic_design` forms them, row by row
+    (a batch gives a row its numbers alone). Shaped (rows, 2 (t^0, t^1), top, 2 (cos, sin))."""
     rows, n = r.shape
+    block = within.shape[1]
     out = np.zeros((rows, 2, top, 2))
     acc = np.zeros((2, top, 2))
     for w in range(rows):
         acc[:] = 0.0
-        for i in range(n):
-            zr, zi = z1[w, i].real, z1[w, i].imag
-            a = r[w, i]
-            b = a * tc[i]
-            pr, pi = zr, zi
-            for j in range(top):
-                acc[0, j, 0] += a * pr
-                acc[0, j, 1] += a * pi
-                acc[1, j, 0] += b * pr
-                acc[1, j, 1] += b * pi
-                pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
+        for i0 in range(0, n, block):
+            start = starts[w, i0 // block]
+            for i in range(i0, min(i0 + block, n)):
+                z = start * within[w, i - i0]
+                zr, zi = z.real, z.imag
+                a = r[w, i]
+                b = a * tc[i]
+                pr, pi = zr, zi
+                for j in range(top):
+                    acc[0, j, 0] += a * pr
+                    acc[0, j, 1] += a * pi
+                    acc[1, j, 0] += b * pr
+                    acc[1, j, 1] += b * pi
+                    pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
         out[w] = acc
     return out
 
@@ -145,25 +158,31 @@ def _power_sums(z1: np.ndarray, r: np.ndarray, tc: np.ndarray, top: int) -> np.n
 def _subtract_harmonics(
     r: np.ndarray,
     tc: np.ndarray,
-    z1: np.ndarray,
+    starts: np.ndarray,
+    within: np.ndarray,
     level: np.ndarray,
     slope: np.ndarray,
     c: np.ndarray,
 ) -> np.ndarray:
     """r - level - slope tc - sum_j Re(c[:, j] z^(j + 1)) per row, in one pass over the
-    samples (c: (rows, top), zero below the first fitted harmonic)."""
+    samples (c: (rows, top), zero below the first fitted harmonic; z from the factors
+    :func:`phasor_factors`)."""
     rows, n = r.shape
     top = c.shape[1]
+    block = within.shape[1]
     out = np.empty((rows, n))
     for w in range(rows):
-        for i in range(n):
-            zr, zi = z1[w, i].real, z1[w, i].imag
-            pr, pi = zr, zi
-            s = 0.0
-            for j in range(top):
-                s += c[w, j].real * pr - c[w, j].imag * pi
-                pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
-            out[w, i] = r[w, i] - level[w] - slope[w] * tc[i] - s
+        for i0 in range(0, n, block):
+            start = starts[w, i0 // block]
+            for i in range(i0, min(i0 + block, n)):
+                z = start * within[w, i - i0]
+                zr, zi = z.real, z.imag
+                pr, pi = zr, zi
+                s = 0.0
+                for j in range(top):
+                    s += c[w, j].real * pr - c[w, j].imag * pi
+                    pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
+                out[w, i] = r[w, i] - level[w] - slope[w] * tc[i] - s
     return out
 
 
@@ -208,7 +227,7 @@ def harmonic_equations(
     r: np.ndarray,
     derivative: bool,
     fs: float,
-    z1: np.ndarray | None = None,
+    factors: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The normal equations (design design', design r) of :func:`harmonic_design` per row,
     without the design: every product of two columns t^p cos|sin(k phi) t^q cos|sin(l phi)
@@ -218,15 +237,16 @@ def harmonic_equations(
     phasor powers (formed and summed in one compiled pass over the samples, :func:`_power_sums`),
     instead of the m (m + 1) / 2 + m products of columns (m = 18 for four harmonics with
     their t-columns). ``tc``: the samples' times from the middle, (n - (N - 1) / 2) / fs, as
-    the closed form takes them. ``z1``: the phasors :func:`phasors` of ``tc`` and ``f``, when
-    already known. None when :func:`_dirichlet_sums` is."""
+    the closed form takes them. ``factors``: :func:`phasor_factors` of ``tc`` and ``f``,
+    when already known. None when :func:`_dirichlet_sums` is."""
     kmax = max(ks)
     rows, n = r.shape
     sums = _dirichlet_sums(n, fs, f, 2 * kmax)
     if sums is None:
         return None
     cos_s, sin_s = sums
-    rsums = _power_sums(phasors(tc, f) if z1 is None else z1, r, tc, kmax)
+    starts, within = phasor_factors(tc, f) if factors is None else factors
+    rsums = _power_sums(starts, within, r, tc, kmax)
     cols = _columns(ks, derivative)
     p, sn, k = (c[:, None] for c in cols.T)
     q, sm, l_ = (c[None, :] for c in cols.T)
@@ -265,16 +285,16 @@ def harmonic_residual(
     f: np.ndarray,
     ks: list[int],
     sol: np.ndarray,
-    z1: np.ndarray | None = None,
+    factors: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """r minus the fit ``sol`` of :func:`harmonic_design` (without t-columns) at ``f``,
-    harmonics ``ks`` consecutive (those below 0.45 fs, as the analysis groups rows); ``z1``:
-    the phasors :func:`phasors` of ``tc`` and ``f``, when already known."""
+    harmonics ``ks`` consecutive (those below 0.45 fs, as the analysis groups rows);
+    ``factors``: :func:`phasor_factors` of ``tc`` and ``f``, when already known."""
     # Re((a_k - i b_k) z^k) = a_k cos + b_k sin: the harmonics' coefficients as complex
     c = np.zeros((f.size, ks[-1]), dtype=complex)
     c[:, ks[0] - 1 :] = sol[:, 2::2] - 1j * sol[:, 3::2]
-    z1 = phasors(tc, f) if z1 is None else z1
-    return _subtract_harmonics(r, tc, z1, sol[:, 0].copy(), sol[:, 1].copy(), c)
+    starts, within = phasor_factors(tc, f) if factors is None else factors
+    return _subtract_harmonics(r, tc, starts, within, sol[:, 0].copy(), sol[:, 1].copy(), c)
 
 
 def refine_frequency(

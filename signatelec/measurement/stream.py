@@ -2,7 +2,8 @@
 
 :func:`read_chunks` yields :class:`Chunk` (time, resistance and, when asked, speed columns as
 floats) of at most ``chunk_rows`` rows, so that the memory held does not depend on the file's
-length: Parquet through ``pyarrow.parquet.ParquetFile.iter_batches`` (the columns asked only),
+length: Parquet by row groups of at most :data:`GROUP_ROWS` rows (``read_row_group``, the
+columns asked only), larger ones through ``iter_batches``;
 CSV as blocks of whole lines parsed by pandas with the header of the file. The columns are
 checked and converted as :func:`signatelec.measurement.traces.read_trace` does
 (:func:`~signatelec.measurement.traces.check_columns`,
@@ -29,6 +30,9 @@ from signatelec.measurement.traces import TraceError, check_columns, numeric_col
 
 #: Rows per chunk: 2^18 rows of three float columns are 6 MB.
 CHUNK_ROWS = 1 << 18
+#: Rows of the largest Parquet row group read whole (2^21 rows of three float columns are
+#: 50 MB); larger ones are read in record batches of ``chunk_rows``.
+GROUP_ROWS = 1 << 21
 PARQUET_SUFFIXES = (".parquet", ".pq")
 CSV_SUFFIXES = (".csv", ".txt", ".tsv")
 
@@ -65,13 +69,24 @@ def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
         ) from None
     check_columns(pf.schema_arrow.names, names, where)
     row = 0
-    for batch in pf.iter_batches(batch_size=chunk_rows, columns=names, use_threads=False):
-        yield _arrow_chunk(batch, names, where, row)
-        row += batch.num_rows
+    for group in range(pf.num_row_groups):
+        size = pf.metadata.row_group(group).num_rows
+        if size <= GROUP_ROWS:
+            # a whole row group read at once, cut into chunks without copying: ~0.6x the
+            # time of the record batches (measured on 1e6-row groups)
+            table = pf.read_row_group(group, columns=names, use_threads=False)
+            parts = (table.slice(i, chunk_rows) for i in range(0, size, chunk_rows))
+        else:
+            parts = pf.iter_batches(
+                batch_size=chunk_rows, row_groups=[group], columns=names, use_threads=False
+            )
+        for part in parts:
+            yield _arrow_chunk(part, names, where, row)
+            row += part.num_rows
 
 
 def _arrow_chunk(batch, names, where, first_row) -> Chunk:
-    """A chunk of a record batch: numeric columns cast to floats in Arrow (missing -> NaN),
+    """A chunk of a record batch or table slice: numeric columns cast to floats in Arrow (missing -> NaN),
     without the detour through pandas that costs ~0.1 us a row; any other column through
     :func:`~signatelec.measurement.traces.numeric_column` (its one-line refusal of text)."""
     import pyarrow as pa
