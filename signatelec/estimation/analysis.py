@@ -257,23 +257,6 @@ def _welch_rows(x: np.ndarray, fs: float, f_bp: np.ndarray, passes: int) -> list
     return out
 
 
-def shape_stats(w: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(crest, skewness, excess kurtosis, asymmetry) of zero-mean waveforms along the last
-    axis; (1, 0, 0, 0) for a flat one."""
-    w2 = w * w
-    var = w2.mean(axis=-1)
-    flat = var <= 0.0
-    var_s = np.where(flat, 1.0, var)
-    sd = np.sqrt(var_s)
-    wmax, wmin = w.max(axis=-1), w.min(axis=-1)
-    crest = np.where(flat, 1.0, np.maximum(wmax, -wmin) / sd)
-    skew = np.where(flat, 0.0, (w2 * w).mean(axis=-1) / sd**3)
-    kurt = np.where(flat, 0.0, (w2 * w2).mean(axis=-1) / var_s**2 - 3.0)
-    span = np.where(wmax > wmin, wmax - wmin, 1.0)
-    asym = np.where(flat | (wmax <= wmin), 0.0, (wmax + wmin) / span)
-    return crest, skew, kurt, asym
-
-
 #: The statistics of :func:`_row_statistics`, in the order of :func:`_statistics_pass`'s columns.
 STATISTICS = (
     "median",
