@@ -124,33 +124,54 @@ def harmonic_design(
     return design
 
 
-@njit(cache=True, error_model="numpy")
-def _power_sums(starts, within, r: np.ndarray, tc: np.ndarray, top: int) -> np.ndarray:
+def _factor_powers(factors: tuple[np.ndarray, np.ndarray], top: int) -> tuple[np.ndarray, ...]:
+    """(starts^j, within^j), j = 1..top, of :func:`phasor_factors`, each (rows, m, top), by
+    repeated products: z^j at sample b B + j is their product, no sample's power depending on
+    another's (the passes below then vectorise)."""
+    out = []
+    for z in factors:
+        p = np.empty(z.shape + (top,), dtype=complex)
+        p[..., 0] = z
+        for j in range(1, top):
+            p[..., j] = p[..., j - 1] * z
+        out.append(p)
+    return tuple(out)
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"}, error_model="numpy")
+def _power_sums(start_powers, within_powers, r: np.ndarray, tc: np.ndarray) -> np.ndarray:
     """sum over samples of r z^j and r tc z^j, j = 1..top, per row (z: the phasors
-    :func:`phasors`, formed from their factors :func:`phasor_factors`): one pass over the
-    samples, the powers by repeated products as :func:`harmonic_design` forms them, row by row
-    (a batch gives a row its numbers alone). Shaped (rows, 2 (t^0, t^1), top, 2 (cos, sin))."""
+    :func:`phasors`, their powers from the factors' :func:`_factor_powers`), row by row (a
+    batch gives a row its numbers alone). The sums may be reassociated, so that they
+    vectorise (~6x faster; ~4e-15 relative from the sequential sums). Shaped
+    (rows, 2 (t^0, t^1), top, 2 (cos, sin))."""
     rows, n = r.shape
-    block = within.shape[1]
+    blocks, block, top = start_powers.shape[1], within_powers.shape[1], within_powers.shape[2]
     out = np.zeros((rows, 2, top, 2))
-    acc = np.zeros((2, top, 2))
+    w_re, w_im = np.empty((top, block)), np.empty((top, block))
     for w in range(rows):
-        acc[:] = 0.0
-        for i0 in range(0, n, block):
-            start = starts[w, i0 // block]
-            for i in range(i0, min(i0 + block, n)):
-                z = start * within[w, i - i0]
-                zr, zi = z.real, z.imag
-                a = r[w, i]
-                b = a * tc[i]
-                pr, pi = zr, zi
-                for j in range(top):
-                    acc[0, j, 0] += a * pr
-                    acc[0, j, 1] += a * pi
-                    acc[1, j, 0] += b * pr
-                    acc[1, j, 1] += b * pi
-                    pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
-        out[w] = acc
+        for j in range(top):
+            for i in range(block):
+                w_re[j, i] = within_powers[w, i, j].real
+                w_im[j, i] = within_powers[w, i, j].imag
+        for b in range(blocks):
+            i0 = b * block
+            for j in range(top):
+                s_re, s_im = start_powers[w, b, j].real, start_powers[w, b, j].imag
+                c0 = c1 = c2 = c3 = 0.0
+                for i in range(min(block, n - i0)):
+                    z_re = s_re * w_re[j, i] - s_im * w_im[j, i]
+                    z_im = s_re * w_im[j, i] + s_im * w_re[j, i]
+                    a = r[w, i0 + i]
+                    at = a * tc[i0 + i]
+                    c0 += a * z_re
+                    c1 += a * z_im
+                    c2 += at * z_re
+                    c3 += at * z_im
+                out[w, 0, j, 0] += c0
+                out[w, 0, j, 1] += c1
+                out[w, 1, j, 0] += c2
+                out[w, 1, j, 1] += c3
     return out
 
 
@@ -158,31 +179,31 @@ def _power_sums(starts, within, r: np.ndarray, tc: np.ndarray, top: int) -> np.n
 def _subtract_harmonics(
     r: np.ndarray,
     tc: np.ndarray,
-    starts: np.ndarray,
-    within: np.ndarray,
+    start_powers: np.ndarray,
+    within_powers: np.ndarray,
     level: np.ndarray,
     slope: np.ndarray,
     c: np.ndarray,
 ) -> np.ndarray:
-    """r - level - slope tc - sum_j Re(c[:, j] z^(j + 1)) per row, in one pass over the
-    samples (c: (rows, top), zero below the first fitted harmonic; z from the factors
-    :func:`phasor_factors`)."""
+    """r - level - slope tc - sum_j Re(c[:, j] z^(j + 1)) per row (c: (rows, top), zero below
+    the first fitted harmonic; the powers of z from :func:`_factor_powers`): per block of
+    samples, c_j times the block start's power, then the harmonics added sample by sample."""
     rows, n = r.shape
-    top = c.shape[1]
-    block = within.shape[1]
+    blocks, block, top = start_powers.shape[1], within_powers.shape[1], within_powers.shape[2]
     out = np.empty((rows, n))
+    fit = np.empty(block)
     for w in range(rows):
-        for i0 in range(0, n, block):
-            start = starts[w, i0 // block]
-            for i in range(i0, min(i0 + block, n)):
-                z = start * within[w, i - i0]
-                zr, zi = z.real, z.imag
-                pr, pi = zr, zi
-                s = 0.0
-                for j in range(top):
-                    s += c[w, j].real * pr - c[w, j].imag * pi
-                    pr, pi = pr * zr - pi * zi, pr * zi + pi * zr
-                out[w, i] = r[w, i] - level[w] - slope[w] * tc[i] - s
+        for b in range(blocks):
+            i0 = b * block
+            m = min(block, n - i0)
+            fit[:m] = 0.0
+            for j in range(top):
+                d = c[w, j] * start_powers[w, b, j]
+                for i in range(m):
+                    z = within_powers[w, i, j]
+                    fit[i] += d.real * z.real - d.imag * z.imag
+            for i in range(m):
+                out[w, i0 + i] = r[w, i0 + i] - level[w] - slope[w] * tc[i0 + i] - fit[i]
     return out
 
 
@@ -245,8 +266,8 @@ def harmonic_equations(
     if sums is None:
         return None
     cos_s, sin_s = sums
-    starts, within = phasor_factors(tc, f) if factors is None else factors
-    rsums = _power_sums(starts, within, r, tc, kmax)
+    powers = _factor_powers(phasor_factors(tc, f) if factors is None else factors, kmax)
+    rsums = _power_sums(*powers, r, tc)
     cols = _columns(ks, derivative)
     p, sn, k = (c[:, None] for c in cols.T)
     q, sm, l_ = (c[None, :] for c in cols.T)
@@ -293,8 +314,8 @@ def harmonic_residual(
     # Re((a_k - i b_k) z^k) = a_k cos + b_k sin: the harmonics' coefficients as complex
     c = np.zeros((f.size, ks[-1]), dtype=complex)
     c[:, ks[0] - 1 :] = sol[:, 2::2] - 1j * sol[:, 3::2]
-    starts, within = phasor_factors(tc, f) if factors is None else factors
-    return _subtract_harmonics(r, tc, starts, within, sol[:, 0].copy(), sol[:, 1].copy(), c)
+    powers = _factor_powers(phasor_factors(tc, f) if factors is None else factors, ks[-1])
+    return _subtract_harmonics(r, tc, *powers, sol[:, 0].copy(), sol[:, 1].copy(), c)
 
 
 def refine_frequency(
