@@ -124,6 +124,7 @@ def _find_ball_pass(
     duration = n / fs
     n_fft = sfft.next_fast_len(PAD * n, real=True)
     df = fs / n_fft
+    last = n_fft // 2  # the transform's last bin: beyond it np.interp holds its value
     found, ratio = np.array(f_exp, dtype=float), np.ones(len(f_exp))
     for f0 in np.unique(f_exp[f_exp > 0.0]):
         rows = np.flatnonzero(f_exp == f0)
@@ -135,9 +136,9 @@ def _find_ball_pass(
             fk = k * cand
             oks.append(fk < 0.5 * fs)
             pos = fk[oks[-1]] / df
-            j = np.floor(pos).astype(int)
+            j = np.minimum(np.floor(pos).astype(int), last)
             weights.append(pos - j)
-            columns += [j, j + 1]
+            columns += [j, np.minimum(j + 1, last)]
         columns = np.concatenate(columns)
         power = np.empty((rows.size, columns.size))
         for part in _pieces(rows.size, 16 * n_fft):
