@@ -289,7 +289,10 @@ def factor_tables(draw, name: str) -> dict:
         return {"values": draw(st.lists(number, min_size=draw(sample([1, 1, 0])), max_size=2))}
     if form == "range":
         ends = draw(st.lists(sample(valid + refused * draw(rarely(4))), min_size=2))
-        lo, hi = sorted(ends[:2])[:: -1 if draw(rarely(10)) else 1]
+        # a refused end may be a word where the valid ones are numbers: order by type first
+        lo, hi = sorted(ends[:2], key=lambda v: (type(v).__name__, v))[
+            :: -1 if draw(rarely(10)) else 1
+        ]
         table = {"min": lo, "max": hi}
         if draw(st.booleans()):
             table["levels"] = draw(mostly(sample([1, 2]), sample([0, 10_001])))
