@@ -154,7 +154,7 @@ def test_no_line_answered_without_confidence(model_file, tmp_path, capsys):
 
 @pytest.mark.parametrize(
     ("scale", "expected"),
-    [(1e3, "1000x the trained range 1.10-9.79 mOhm: is the column in mOhm?"), (1e-3, "kOhm?")],
+    [(1e3, "1000x the trained range 1.1-9.79 mOhm: is the column in mOhm?"), (1e-3, "kOhm?")],
 )
 def test_wrong_unit_named(model_file, tmp_path, capsys, scale, expected):
     path = _write(tmp_path, "scaled", _example()["resistance_ohm"].to_numpy() * scale)

@@ -101,11 +101,12 @@ CALIBRATION_TABLE = Path(__file__).parent / "data" / "condition_calibration.parq
 #: Shipped training rows of paper-fidelity runs (velocity Verlet, dt = 1e-7 s) of the same
 #: design, one 50 ms and one 200 ms window each (:func:`shipped_rows`;
 #: ``python pipelines/load_state.py --ship-paper`` writes it): the default model trains on
-#: them beside :data:`DEFAULT_TABLE`. Doubling the runs, more than their fidelity, is what
-#: counts: on the monitoring study's calibration states (paper fidelity, 0.2 s windows at
-#: 0.2 % noise) the default model's error is the same on fast-preset runs of those states
-#: (pipelines/monitor_bias.py, docs/monitor), and it fell with the runs: regime of a state's
-#: windows combined 86 % with half of the 1200 fast runs, 90 % with all, 94 % with these too.
+#: them beside :data:`DEFAULT_TABLE`. On the monitoring study's calibration states (paper
+#: fidelity, 0.2 s windows at 0.2 % noise) the fast-only model erred alike on fast-preset runs
+#: of those states, and its error fell with the runs: regime of a state's windows combined
+#: 86 % with half of the 1200 fast runs, 90 % with all, 94 % with these too (F_r within 1 %:
+#: 89 % -> 94 %); the paper-fidelity rows also teach the records' own signature (the cage
+#: slip differs between the fidelities). docs/monitor/model_error.md, pipelines/monitor_bias.py.
 PAPER_TABLE = Path(__file__).parent / "data" / "load_state_paper_features.parquet"
 #: Version of :func:`train_default_model`'s recipe, raised whenever it trains differently
 #: from the same shipped tables (2: the faulty model on the condition model's runs alone, the
