@@ -315,7 +315,7 @@ def header(table: pd.DataFrame, n_states: int, draws: int) -> list[str]:
         "the fast runs: "
         f"{row(names[0], 'paper', 'noisy')}. With the 1200 paper-fidelity runs beside the "
         f"1200 fast ones (the default model now): {row(new, 'paper', 'noisy')}; the fold and "
-        "harmonic-null states are right, the errors left lie at the regime boundary. 1200 "
+        "harmonic-null states are right, the errors left lie near the regime boundary. 1200 "
         "more paper-fidelity runs (3600 in all; measured once on these windows, not by this "
         "script) left the same four states wrong and F_r within 1 % for one state more: not "
         "shipped.",
