@@ -28,6 +28,8 @@ from signatelec.estimation.report import format_estimate
 from signatelec.estimation.training import (
     DEFAULT_TABLE,
     MODEL_FEATURES,
+    PAPER_TABLE,
+    default_training_table,
     model_features,
     train_default_model,
 )
@@ -188,6 +190,30 @@ def test_regimes_follow_epsilon():
             assert regime == "zero" and abs(eps - 0.5) < 0.5 * tol / 2e-5
         else:
             assert regime == ("preload" if eps > 0.5 else "clearance")
+
+
+def test_paper_rows_follow_their_clearance():
+    """The default model's paper-fidelity rows: runs of their own (ids apart from the fast
+    runs'), one 50 ms and one 200 ms window each, F_r over the design's 0.086-0.43 C_r
+    (2500-12500 N), labelled with the regime of their clearance, and the DEM's epsilon on the
+    side of 0.5 that clearance asks for (seed eq. 15: < 0.5 with a clearance, > 0.5 under a
+    preload; within 0.015 of 0.5 in the zero regime: by quasi-static theory,
+    physics.quasistatic.clearance_for_epsilon, the +-1 um tolerance spans epsilon 0.4865-0.513
+    at 2500 N; measured 0.4875-0.5131)."""
+    paper, fast = pd.read_parquet(PAPER_TABLE), pd.read_parquet(DEFAULT_TABLE)
+    assert not set(paper["run_id"]) & set(fast["run_id"])
+    lengths = paper.groupby("run_id")["length_s"].agg(
+        lambda x: tuple(sorted(round(float(v), 3) for v in x))
+    )
+    assert set(lengths) == {(0.05, 0.2)}
+    assert paper["radial_load_n"].between(2500 * 0.999, 12500 * 1.001).all()
+    regime = paper["regime"].astype(str)
+    assert (regime == [regime_of(float(c)) for c in paper["clearance_m"]]).all()
+    eps = paper["epsilon"].to_numpy(float)
+    assert np.all(eps[regime == "clearance"] < 0.5) and np.all(eps[regime == "preload"] > 0.5)
+    assert np.all(np.abs(eps[regime == "zero"] - 0.5) < 0.015)
+    both = default_training_table()
+    assert len(both) == len(paper) + len(fast) and set(both["regime"]) == set(REGIMES)
 
 
 def test_model_round_trip(small_model):

@@ -30,7 +30,7 @@ from signatelec.measurement.traces import TraceError, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: The example's estimate with the default model (README, "Load-state estimation").
-EXAMPLE_LOAD_N = 6929.0
+EXAMPLE_LOAD_N = 6923.0
 
 
 @pytest.fixture(scope="module")
@@ -154,7 +154,7 @@ def test_no_line_answered_without_confidence(model_file, tmp_path, capsys):
 
 @pytest.mark.parametrize(
     ("scale", "expected"),
-    [(1e3, "1000x the trained range 1.12-9.79 mOhm: is the column in mOhm?"), (1e-3, "kOhm?")],
+    [(1e3, "1000x the trained range 1.1-9.79 mOhm: is the column in mOhm?"), (1e-3, "kOhm?")],
 )
 def test_wrong_unit_named(model_file, tmp_path, capsys, scale, expected):
     path = _write(tmp_path, "scaled", _example()["resistance_ohm"].to_numpy() * scale)

@@ -61,9 +61,9 @@ Z90 = stats.norm.ppf(0.95)
 #: acceptance records', default model, 0.2 s windows); ``"any"``: over all of them, for a
 #: stretch without a regime.
 BIAS_RATIO = {
-    "radial_load_n": {"any": 0.714, "clearance": 0.91, "preload": 0.716, "zero": 0.325},
-    "epsilon": {"any": 0.516, "clearance": 1.144, "preload": 0.516, "zero": 0.218},
-    "clearance_m": {"any": 0.590, "clearance": 0.68, "preload": 0.42, "zero": 0.11},
+    "radial_load_n": {"any": 0.463, "clearance": 0.901, "preload": 0.551, "zero": 0.185},
+    "epsilon": {"any": 0.505, "clearance": 0.926, "preload": 0.605, "zero": 0.202},
+    "clearance_m": {"any": 0.460, "clearance": 0.816, "preload": 0.518, "zero": 0.134},
 }
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"

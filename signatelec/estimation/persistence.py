@@ -40,6 +40,7 @@ from signatelec.estimation.training import (
     CONDITION_TABLE,
     DEFAULT_RECIPE,
     DEFAULT_TABLE,
+    PAPER_TABLE,
     train_default_model,
 )
 from signatelec.io import cache_dir, write_bytes_atomic
@@ -194,9 +195,10 @@ def load_model(path: str | Path) -> LoadStateModel:
 
 def default_model_path(table: Path = DEFAULT_TABLE) -> Path:
     """The cache entry of the default model: one per release, feature set, model format,
-    training recipe, scikit-learn and shipped tables (load state, condition, calibration)."""
+    training recipe, scikit-learn and shipped tables (load state, paper-fidelity load state,
+    condition, calibration)."""
     digest = hashlib.sha256(table.read_bytes())
-    for shipped in (CONDITION_TABLE, CALIBRATION_TABLE):
+    for shipped in (PAPER_TABLE, CONDITION_TABLE, CALIBRATION_TABLE):
         if shipped.is_file():
             digest.update(shipped.read_bytes())
     digest = digest.hexdigest()[:10]
@@ -223,7 +225,8 @@ def default_model(log: Callable[[str], None] | None = None) -> LoadStateModel:
         )
     path = default_model_path()
     message = (
-        f"building the default model from {DEFAULT_TABLE.name} (once; cached in {path.parent})"
+        f"building the default model from {DEFAULT_TABLE.name} and {PAPER_TABLE.name} (once; "
+        f"cached in {path.parent})"
     )
     if path.is_file():
         try:

@@ -22,7 +22,7 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
    :func:`~signatelec.measurement.traces.prepare_trace`;
 2. :func:`check_level`, given the model's trained level range: a mean resistance outside it by
    more than :data:`LEVEL_MARGIN` is refused, naming the unit mix-up when a factor of 1000
-   (or 10^6) brings it inside ("level 2.5 Ohm is 1000x the trained range 1.12-9.79 mOhm: is
+   (or 10^6) brings it inside ("level 2.5 Ohm is 1000x the trained range 1.1-9.79 mOhm: is
    the column in mOhm?", the default model's range); within the margin it is a note;
 3. :func:`~signatelec.measurement.ripple.find_ripple`: the ball-pass line in the data, with its
    significance, near the frequency the speed predicts. A line elsewhere (a wrong ``--omega``)

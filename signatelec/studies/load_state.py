@@ -43,7 +43,13 @@ from signatelec.data import read_dataset, spec_from_dict
 from signatelec.estimation.features import trace_features
 from signatelec.estimation.models import LoadStateModel
 from signatelec.estimation.persistence import save_model
-from signatelec.estimation.training import shipped_table, train_default_model, train_model
+from signatelec.estimation.training import (
+    PAPER_TABLE,
+    shipped_rows,
+    shipped_table,
+    train_default_model,
+    train_model,
+)
 from signatelec.io import write_bytes_atomic
 from signatelec.measurement.model import MeasurementDraw, MeasurementModel
 from signatelec.measurement.traces import MIN_BALL_PASSES
@@ -71,6 +77,12 @@ TEST_RUNS_PER_REGIME = 30
 #: First spawn-key words of the measurement draws: training windows (+ their length's index),
 #: acceptance windows, each scan's windows (+ the value's index).
 TRAIN_KEY, ACCEPT_KEY, SCAN_KEYS = 100, 1, {"noise": 200, "length": 300}
+#: The default model's paper-fidelity runs (``datasets/load_state_paper.toml``): the windows
+#: measured of each (one per length, each with its own :func:`train_draw`; spawn keys from
+#: :data:`PAPER_KEY`), and the offset of their run ids (apart from the training runs').
+PAPER_WINDOWS = (0.05, 0.2)
+PAPER_KEY = 150
+PAPER_RUN_ID_OFFSET = 100000
 
 Log = Callable[[str], None]
 
@@ -241,6 +253,31 @@ def feature_tables(
     return tables
 
 
+def paper_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """The paper-fidelity rows of the default model from their runs (:data:`PAPER_WINDOWS`),
+    as :func:`~signatelec.estimation.training.shipped_rows` keeps them."""
+    runs = runs.assign(trace_id=runs["trace_id"] + PAPER_RUN_ID_OFFSET)
+    rows = []
+    for i, length in enumerate(PAPER_WINDOWS):
+        rows += measured_windows(runs, length, 1, train_draw, key=PAPER_KEY + i)
+    return shipped_rows(pd.DataFrame(rows))
+
+
+def ship_paper_table(out: Path, spec_path: Path, ship_to: Path, log: Log = _quiet) -> Path:
+    """Generate (or resume) the paper-fidelity runs of ``spec_path`` into ``out/runs_paper``
+    and write their :func:`paper_table` to ``ship_to``."""
+    spec = spec_from_dict(tomllib.loads(Path(spec_path).read_text()), str(spec_path))
+    d = Path(out) / "runs_paper"
+    t0 = time.perf_counter()
+    summary = generate_dataset(spec, d, workers=0, progress=log is not _quiet)
+    log(f"generate {spec.name}: {summary.n_traces} traces, {time.perf_counter() - t0:.0f} s")
+    table = paper_table(load_runs(d, log))
+    Path(ship_to).parent.mkdir(parents=True, exist_ok=True)
+    write_bytes_atomic(ship_to, table.to_parquet(index=False, compression="zstd"))
+    log(f"wrote {ship_to} ({Path(ship_to).stat().st_size / 1e3:.0f} kB, {len(table)} rows)")
+    return Path(ship_to)
+
+
 # --- 3. train (and cross-validate) --------------------------------------------------------------
 
 
@@ -364,7 +401,8 @@ def run_study(
     log(f"model: {model.info['n_rows']} rows, fit {model.info['fit_s']} s")
 
     shipped = shipped_table(train)
-    default = train_default_model(shipped)
+    paper = [pd.read_parquet(PAPER_TABLE)] if PAPER_TABLE.is_file() and not quick else []
+    default = train_default_model(pd.concat([shipped, *paper], ignore_index=True))
     test_default = predict_rows(default, test_eval)
     log(
         f"default model (shipped table): {default.info['n_rows']} rows, "

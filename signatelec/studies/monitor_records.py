@@ -14,6 +14,7 @@ import pandas as pd
 
 from signatelec.config.bearing import Bearing
 from signatelec.config.scene import Scene
+from signatelec.engines.fidelity import apply_fidelity
 from signatelec.engines.simulate import simulate
 from signatelec.physics.quasistatic import clearance_for_epsilon
 from signatelec.physics.regimes import regime_of
@@ -62,7 +63,9 @@ def bank_states(n: int = BANK_STATES, seed: int = BANK_SEED) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _run_state(row: dict) -> pd.DataFrame:
+def run_state(row: dict, fidelity: str | None = None) -> pd.DataFrame:
+    """The steady trace of one bank state (``time_s``, ``resistance_ohm``, ``epsilon``): the
+    paper's numerics, or a preset of :mod:`signatelec.engines.fidelity` (``fidelity``)."""
     scene = Scene().with_overrides(
         radial_load_n=row["radial_load_n"],
         clearance_m=row["clearance_m"],
@@ -72,6 +75,8 @@ def _run_state(row: dict) -> pd.DataFrame:
     setup = scene.procedure.clearance_time_s + scene.procedure.load_time_s
     setup += scene.procedure.spin_up_time_s
     scene = scene.with_overrides(duration_s=setup + SETTLE_S + STEADY_S)
+    if fidelity is not None:
+        scene = apply_fidelity(scene, fidelity)
     result = simulate(scene)
     sig = result.signals
     steady = sig[(sig["phase"] == "steady") & (sig["time_s"] >= setup + SETTLE_S)]
@@ -97,7 +102,7 @@ def dem_bank(
             steady = pd.read_parquet(path)
         else:
             start = time.process_time()
-            steady = _run_state(row)
+            steady = run_state(row)
             steady.to_parquet(path.with_suffix(".part"))
             path.with_suffix(".part").rename(path)
             if log:
