@@ -66,9 +66,9 @@ def cage_contacts(constants: dict, normal_lane):
             on = ov != 0.0
             sgn = 1.0 if ov > 0.0 else -1.0
             vclose = sgn * (W[vc + lane] * nx + W[vc + LANES + lane] * ny)
-            fn, rd, qd, dloss, de = normal_lane(
+            fn, rd, qd, dloss, de, _ = normal_lane(
                 abs(ov), vclose, 3, W[P_LIMIT * LANES + lane] * rc, c, on, W, lane,
-                ROOTS + 20 * j + R_WALL + 1,
+                ROOTS + 20 * j + R_WALL + 1, True,
             )  # fmt: skip
             add_energy(W, lane, dloss, de)
             W[(ACC_NEW + 2 * c) * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
@@ -100,9 +100,9 @@ def cage_contacts(constants: dict, normal_lane):
             rvx = W[(VEL + 2 * a) * LANES + lane] - W[(VEL + 2 * b) * LANES + lane]
             rvy = W[(VEL + 2 * a + 1) * LANES + lane] - W[(VEL + 2 * b + 1) * LANES + lane]
             vclose = -(rvx * nx + rvy * ny)
-            fn, rd, qd, dloss, de = normal_lane(
+            fn, rd, qd, dloss, de, _ = normal_lane(
                 reach - d2 * inv, vclose, kind, W[P_LIMIT * LANES + lane] * radius, body, inside,
-                W, lane, root_row + 1,
+                W, lane, root_row + 1, True,
             )  # fmt: skip
             add_energy(W, lane, dloss, de)
             fx = fn * nx if inside else 0.0
@@ -155,10 +155,10 @@ def cage_contacts(constants: dict, normal_lane):
                 # closing: ball centre away from the pocket centre (a cage point: v_c + w x r)
                 vx = W[(VEL + 2 * k) * LANES + lane] - W[vcage + lane] + wc * oy
                 vy = W[(VEL + 2 * k + 1) * LANES + lane] - W[vcage + LANES + lane] - wc * ox
-                fn, rd, qd, dloss, de = normal_lane(
+                fn, rd, qd, dloss, de, _ = normal_lane(
                     d2 * inv - gap, vx * nx + vy * ny, 5,
                     W[P_LIMIT * LANES + lane] * W[P_RB * LANES + lane], k, inside, W, lane,
-                    ROOTS + 20 * k + R_SIDE0 + 1,
+                    ROOTS + 20 * k + R_SIDE0 + 1, True,
                 )  # fmt: skip
                 add_energy(W, lane, dloss, de)
                 fx = fn * nx if inside else 0.0
