@@ -20,7 +20,8 @@ though under 1 % of the updates need them, and the divider bounds the loop. A ba
 loop therefore runs first without them (the Householder steps alone), keeping the rows it
 changes; where a lane needed a cold root (0.07 % of the seed's ball loops, 0.5-0.8 % in its
 set-up), the rows are put back and the loop runs again with them: the single kernel's values in
-either case.
+either case. A cage ball's boundary contact runs so too; its contacts with the balls, which open
+and close often (up to 5 % of their loops need a cold root), keep the cold roots.
 """
 
 # fmt: off
@@ -113,6 +114,15 @@ def root_lane(x, y, cold):
 
 
 @inline
+def _keep(W, lane, row, slot, restore):
+    """Lane ``lane`` of row ``row`` of W into row SAVED + ``slot``, or back (``restore``)."""
+    if restore:
+        W[row * LANES + lane] = W[(SAVED + slot) * LANES + lane]
+    else:
+        W[(SAVED + slot) * LANES + lane] = W[row * LANES + lane]
+
+
+@inline
 def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, root_row, cold):
     """:func:`.kernel.normal_contact` for one lane, masked by ``inside`` (the contact is open):
     (normal force, sqrt(delta), delta^{1/4}, damping loss, elastic energy, whether the lane
@@ -197,7 +207,9 @@ def tangential_lane(k, side, root, quarter, slip_speed, fn, W, lane, inside):
 STEADY_LOOP, _past_setup, _steady_lanes, _schedule_lanes = schedule_lanes(globals())
 
 # The cages' contacts (.ensemble_cages), made for this kernel's constants and normal law.
-_cage_ball_lanes, _pair_lanes, _rigid_cage_lanes = cage_contacts(globals(), normal_lane)
+_cage_ball_lanes, _pair_lanes, _rigid_cage_lanes = cage_contacts(
+    globals(), normal_lane, root_lane, _keep, _cold_loop
+)
 
 
 @_entry
@@ -307,15 +319,6 @@ def _ball_state(k, W, lane, restore):
     if TANGENTIAL_SPRING:
         for i in range(4):
             _keep(W, lane, XI + 4 * k + i, 13 + i, restore)
-
-
-@inline
-def _keep(W, lane, row, slot, restore):
-    """Lane ``lane`` of row ``row`` of W into row SAVED + ``slot``, or back (``restore``)."""
-    if restore:
-        W[row * LANES + lane] = W[(SAVED + slot) * LANES + lane]
-    else:
-        W[(SAVED + slot) * LANES + lane] = W[row * LANES + lane]
 
 
 @inline
