@@ -17,11 +17,13 @@ into it.
 A vector loop computes both sides of every select: with the cold roots in it (a square root and
 a division each, .primitives.rsqrt_next), every contact of every step pays them in every lane,
 though under 1 % of the updates need them, and the divider bounds the loop. A ball's contact
-loop therefore runs first without them (the Householder steps alone), keeping the rows it
-changes; where a lane needed a cold root (0.07 % of the seed's ball loops, 0.5-0.8 % in its
-set-up), the rows are put back and the loop runs again with them: the single kernel's values in
-either case. A cage ball's boundary contact runs so too; its contacts with the balls, which open
-and close often (up to 5 % of their loops need a cold root), keep the cold roots.
+loop, and a cage ball's boundary contact, therefore run first without them (the Householder
+steps alone), keeping the rows they change; the lanes where a warm root was not exact where it
+counts (0.07 % of the seed's ball loops, 0.5-0.8 % in its set-up) get their rows back and run
+again with them, alone (a function of its own): the single kernel's values in either case, and
+a lane's values never depend on the other lanes of its batch (a dataset's traces are the same
+however they are grouped). The cage balls' contacts with the balls, which open and close often
+(up to 5 % of their loops need a cold root), keep the cold roots.
 """
 
 # fmt: off
@@ -86,6 +88,8 @@ _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 #: A ball's contact loop with the cold roots: rare (under 1 % of loops, seed scene), so a
 #: function of its own, compiled once, not a second copy inlined into every ball loop.
 _cold_loop = njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
+#: Row SAVED + AGAIN: 1 in a lane whose contact loop runs again with the cold roots.
+AGAIN = 17
 
 # --- rows of W and of a recorded instant (.lanes; module constants: numba compiles them in) ---
 (
@@ -204,7 +208,7 @@ def tangential_lane(k, side, root, quarter, slip_speed, fn, W, lane, inside):
 
 
 # The schedule of every lane (.ensemble_schedule), made for this kernel's constants.
-STEADY_LOOP, _past_setup, _steady_lanes, _schedule_lanes = schedule_lanes(globals())
+_schedule_lanes = schedule_lanes(globals())
 
 # The cages' contacts (.ensemble_cages), made for this kernel's constants and normal law.
 _cage_ball_lanes, _pair_lanes, _rigid_cage_lanes = cage_contacts(
@@ -216,10 +220,7 @@ _cage_ball_lanes, _pair_lanes, _rigid_cage_lanes = cage_contacts(
 def forces(step, PR, W):
     """The new accelerations (rows ACC_NEW, SPIN_ACC) of every lane at its time (step + T_SHIFT)
     dt; also the contact forces, schedule, roots, springs, energy and this step's FLAG."""
-    if STEADY_LOOP and _past_setup(step, W) == LANES:
-        _steady_lanes(step, W)
-    else:
-        _schedule_lanes(step, PR, W)
+    _schedule_lanes(step, PR, W)
     if not CAGE_BALLS:
         for i in range(2 * BALLS * LANES, 4 * BALLS * LANES):
             W[ACC_NEW * LANES + i] = 0.0
@@ -289,11 +290,13 @@ def _ball_lanes(k, PR, W):
             W[(SURF + 1) * LANES + lane] = lobe_shift(W[TIME * LANES + lane], theta, PR[lane])
         if DEFECTS_OUTER or DEFECTS_BALL:
             W[(SURF + 2) * LANES + lane] = contact_drop(OUTER_SIDE, theta, phi, k, PR[lane], rot)
-    # Without the cold roots first; where a lane needed one (rare), again with them from the
-    # rows as they were (the loop is the single kernel's in either case).
+    # Without the cold roots first; the lanes that needed one (rare) again with them from the
+    # rows as they were (the loop is the single kernel's in either case, and a lane's values
+    # do not depend on the other lanes of its batch).
     if _ball_contacts(k, W, False):
         for lane in range(LANES):
-            _ball_state(k, W, lane, True)
+            if W[(SAVED + AGAIN) * LANES + lane] != 0.0:
+                _ball_state(k, W, lane, True)
         _ball_contacts_cold(k, W)
 
 
@@ -333,6 +336,8 @@ def _ball_contacts(k, W, cold):
     fc = (FCON + 6 * k) * LANES
     cold_lanes = 0
     for lane in range(LANES):
+        if cold and W[(SAVED + AGAIN) * LANES + lane] == 0.0:
+            continue  # a lane the first pass left exact
         if not cold:  # the rows as they were, for a second pass with the cold roots
             _ball_state(k, W, lane, False)
         dt = W[P_DT * LANES + lane]
@@ -431,7 +436,9 @@ def _ball_contacts(k, W, cold):
         fn, rd, qd, dloss, de, need_root = normal_lane(
             ov, vclose, 1, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_OUTER + 1, cold
         )
-        cold_lanes += need or need_root
+        need = need or need_root
+        W[(SAVED + AGAIN) * LANES + lane] = 1.0 if need else 0.0
+        cold_lanes += need
         loss += dloss
         elastic += de
         fx = -fn * nx

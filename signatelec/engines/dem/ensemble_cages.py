@@ -20,8 +20,8 @@ from signatelec.engines.dem.records import R_SIDE0, R_SIDE1, R_WALL
 #: The ensemble kernel's constants the cages' contacts read.
 CONSTANTS = (
     "LANES", "BALLS", "ENERGY", "GRAVITY_STANDARD", "POS", "VEL", "ACC_NEW", "ROOTS", "FCON",
-    "LOSS", "ELASTIC", "INV_MB", "INV_MC", "POCKET", "FLAG", "SAVED", "P_RB", "P_RC", "P_RP",
-    "P_G", "P_MC", "P_LIMIT",
+    "LOSS", "ELASTIC", "INV_MB", "INV_MC", "POCKET", "FLAG", "SAVED", "AGAIN", "P_RB", "P_RC",
+    "P_RP", "P_G", "P_MC", "P_LIMIT",
 )  # fmt: skip
 
 
@@ -33,7 +33,7 @@ def cage_contacts(constants: dict, normal_lane, root_lane, keep, cold_loop):
     without the cold roots, again with them where a lane needed one."""
     (
         LANES, BALLS, ENERGY, GRAVITY_STANDARD, POS, VEL, ACC_NEW, ROOTS, FCON, LOSS, ELASTIC,
-        INV_MB, INV_MC, POCKET, FLAG, SAVED, P_RB, P_RC, P_RP, P_G, P_MC, P_LIMIT,
+        INV_MB, INV_MC, POCKET, FLAG, SAVED, AGAIN, P_RB, P_RC, P_RP, P_G, P_MC, P_LIMIT,
     ) = (constants[name] for name in CONSTANTS)  # fmt: skip
 
     @inline
@@ -47,9 +47,10 @@ def cage_contacts(constants: dict, normal_lane, root_lane, keep, cold_loop):
     def cage_ball_lanes(j, nxt, last_j, last_nxt, W):
         """Cage ball j on its boundaries, balls j and ``nxt`` (j + 1); a lane loop per contact.
         ``last_j``, ``last_nxt``: that contact is the ball's last (its F / m follows)."""
-        if wall_lanes(j, W, False):
+        if wall_lanes(j, W, False):  # as a ball's contacts (.ensemble._ball_lanes)
             for lane in range(LANES):
-                wall_state(j, W, lane, True)
+                if W[(SAVED + AGAIN) * LANES + lane] != 0.0:
+                    wall_state(j, W, lane, True)
             wall_lanes_cold(j, W)
         # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
         c = BALLS + j
@@ -80,6 +81,8 @@ def cage_contacts(constants: dict, normal_lane, root_lane, keep, cold_loop):
         at_wall = (ROOTS + 20 * j + R_WALL) * LANES
         cold_lanes = 0
         for lane in range(LANES):
+            if cold and W[(SAVED + AGAIN) * LANES + lane] == 0.0:
+                continue  # a lane the first pass left exact
             if not cold:  # the rows as they were, for a second pass with the cold roots
                 wall_state(j, W, lane, False)
             rc = W[P_RC * LANES + lane]
@@ -106,7 +109,9 @@ def cage_contacts(constants: dict, normal_lane, root_lane, keep, cold_loop):
             add_energy(W, lane, dloss, de)
             W[(ACC_NEW + 2 * c) * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
             W[(ACC_NEW + 2 * c + 1) * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
-            cold_lanes += need or not exact
+            need = need or not exact
+            W[(SAVED + AGAIN) * LANES + lane] = 1.0 if need else 0.0
+            cold_lanes += need
         return cold_lanes
 
     @cold_loop

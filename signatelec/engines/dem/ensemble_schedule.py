@@ -4,22 +4,12 @@ force, and the sums of that evaluation set to 0.
 
 :func:`schedule_lanes` makes its pieces for one specialised ensemble kernel from its module
 constants, as :func:`.ensemble_cages.cage_contacts` makes the cages' contacts (numba compiles a
-closure's variables in as constants and inlines the pieces into the kernel's ``forces``). During
-the set-up the schedule runs lane by lane (its cosines are calls); once every lane is past its
-set-up, its constant end values run in one loop over the lanes.
+closure's variables in as constants and inlines the pieces into the kernel's ``forces``). The
+schedule runs lane by lane (its cosines are calls).
 """
 
 from __future__ import annotations
 
-from signatelec.engines.dem.lanes import (
-    P_CLEARANCE,
-    P_LOAD,
-    P_OMEGA,
-    P_R_OUT,
-    P_T1,
-    P_T2,
-    P_T3,
-)
 from signatelec.engines.dem.primitives import (
     inline,
     ring_angle_rad,
@@ -31,20 +21,18 @@ from signatelec.engines.dem.primitives import (
 #: The ensemble kernel's constants the schedule reads.
 CONSTANTS = (
     "LANES", "BALLS", "T_SHIFT", "DEFECTS_INNER", "UNBALANCE", "LOAD_TABLE", "ENERGY",
-    "GRAVITY_STANDARD", "CAGE_RIGID", "P_DT", "P_G", "P_MI", "VEL", "RING", "SCHED", "RATE",
-    "TIME", "PHI", "FLAG", "RING_FX", "RING_FY", "DRIVE", "LOSS", "ELASTIC", "WORK",
+    "GRAVITY_STANDARD", "CAGE_RIGID", "P_DT", "VEL", "RING", "SCHED", "RATE", "TIME", "PHI",
+    "FLAG", "RING_FX", "RING_FY", "DRIVE", "LOSS", "ELASTIC", "WORK",
 )  # fmt: skip
 
 
 def schedule_lanes(constants: dict):
-    """(steady_loop, past_setup, steady_lanes, schedule_lanes) of the ensemble kernel whose
-    module constants are ``constants`` (its globals: :data:`CONSTANTS`): whether the kernel's
-    effects let the schedule's end values run in one loop, how many lanes are past their
-    set-up, that loop, and the schedule lane by lane."""
+    """The schedule of every lane, lane by lane, of the ensemble kernel whose module constants
+    are ``constants`` (its globals: :data:`CONSTANTS`)."""
     (
         LANES, BALLS, T_SHIFT, DEFECTS_INNER, UNBALANCE, LOAD_TABLE, ENERGY, GRAVITY_STANDARD,
-        CAGE_RIGID, P_DT, P_G, P_MI, VEL, RING, SCHED, RATE, TIME, PHI, FLAG, RING_FX, RING_FY,
-        DRIVE, LOSS, ELASTIC, WORK,
+        CAGE_RIGID, P_DT, VEL, RING, SCHED, RATE, TIME, PHI, FLAG, RING_FX, RING_FY, DRIVE, LOSS,
+        ELASTIC, WORK,
     ) = (constants[name] for name in CONSTANTS)  # fmt: skip
 
     @inline
@@ -99,40 +87,4 @@ def schedule_lanes(constants: dict):
                     work += -g * wsum * dt
             W[WORK * LANES + lane] = work
 
-    # Effects of the schedule that steady_lanes does not carry.
-    steady_loop = not (LOAD_TABLE or UNBALANCE or DEFECTS_INNER or ENERGY)
-
-    @inline
-    def past_setup(step, W):
-        """How many lanes are past their set-up (clearance, load, spin-up) at the time of
-        :func:`.ensemble.forces`."""
-        done = 0
-        for lane in range(LANES):
-            t = (step + T_SHIFT) * W[P_DT * LANES + lane]
-            end = max(W[P_T1 * LANES + lane], W[P_T2 * LANES + lane], W[P_T3 * LANES + lane])
-            done += t >= end
-        return done
-
-    @inline
-    def steady_lanes(step, W):
-        """schedule_lanes_ when every lane is past its set-up: the schedule's constant end
-        values (.primitives.schedule), from the rows of W, without calls or branches."""
-        for lane in range(LANES):
-            t = (step + T_SHIFT) * W[P_DT * LANES + lane]
-            fr = W[P_LOAD * LANES + lane]
-            W[SCHED * LANES + lane] = W[P_R_OUT * LANES + lane] + W[P_CLEARANCE * LANES + lane]
-            W[(SCHED + 1) * LANES + lane] = fr
-            W[(SCHED + 2) * LANES + lane] = W[P_OMEGA * LANES + lane]
-            W[RATE * LANES + lane] = 0.0
-            W[TIME * LANES + lane] = t
-            W[PHI * LANES + lane] = 0.0
-            W[FLAG * LANES + lane] = 0.0
-            g = W[P_G * LANES + lane] if GRAVITY_STANDARD else 0.0
-            W[RING_FX * LANES + lane] = 0.0
-            W[RING_FY * LANES + lane] = -fr - W[P_MI * LANES + lane] * g
-            W[DRIVE * LANES + lane] = 0.0
-            W[LOSS * LANES + lane] = 0.0
-            W[ELASTIC * LANES + lane] = 0.0
-            W[WORK * LANES + lane] = 0.0
-
-    return steady_loop, past_setup, steady_lanes, schedule_lanes_
+    return schedule_lanes_

@@ -35,13 +35,6 @@ P_CAGE_M, P_CAGE_I, P_GAP, P_STEP_COS, P_STEP_SIN = (
         "pocket_step_sin",
     )
 )  # fmt: skip
-P_T1, P_T2, P_T3, P_R_OUT, P_CLEARANCE, P_LOAD, P_OMEGA = (
-    PARAM_ROWS[name]
-    for name in (
-        "clearance_end_s", "load_end_s", "spin_up_end_s", "outer_race_radius_m", "clearance_m",
-        "radial_load_n", "omega_rad_s",
-    )
-)  # fmt: skip
 P_NCOEF = PARAM_ROWS["normal_coefficient"]  # 6 rows each, by contact type; then 2 by raceway
 P_NDAMP, P_TSTIFF, P_TDAMP = (
     PARAM_ROWS[f"{name}_factor"]
@@ -93,7 +86,8 @@ class WorkRows(NamedTuple):
     REC_INDEX: int  # its next free recorded instant
     SURF: int  # 3: under the ball of this contact loop, the inner drop, lobes, outer drop
     POCKET: int  # 5: the rigid cage's pocket direction u_k (x, y), its force (x, y), torque
-    SAVED: int  # 17: the rows a ball's contact loop changes, as they were before it
+    SAVED: int  # 18: the rows a ball's contact loop changes, as they were before it, and
+    # whether each lane needs the loop again with the cold roots
     ROWS: int  # the total
 
 
@@ -107,7 +101,7 @@ def work_rows(balls: int) -> WorkRows:
         "FLAG": 1, "RATE": 1, "TIME": 1, "PHI": 1, "RING_FX": 1, "RING_FY": 1, "DRIVE": 1,
         "LOSS": 1, "WORK": 1, "ELASTIC": 1, "INV_MB": 1, "INV_MC": 1, "DTS": 2 * nb,
         "EVERY": 1, "COUNTDOWN": 1, "REC_INDEX": 1, "SURF": 3, "POCKET": 5,
-        "SAVED": 17,
+        "SAVED": 18,
     }  # fmt: skip
     rows = {"NB": nb, "N2": 2 * nb, "RING": 2 * balls}
     row = PARAM_ROWS["_total"]
