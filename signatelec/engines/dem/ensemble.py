@@ -10,8 +10,20 @@ branch. The physics is that of :mod:`.kernel`, in the same order and with the sa
 the unbalance, the local surface of defects and lobes from physics.defects); the schedule, with
 its cosines, and the local surface, with its loop over the defects, run per lane from ``PR``,
 the lanes' parameter records (a defect's geometry is a scene's own: each lane reads its table).
-The cages' contacts (cage balls, ball on ball, the rigid cage's pockets) are
-those of :mod:`.ensemble_cages`, made for this kernel's constants and compiled into it.
+The schedule (:mod:`.ensemble_schedule`) and the cages' contacts (cage balls, ball on ball, the
+rigid cage's pockets: :mod:`.ensemble_cages`) are made for this kernel's constants and compiled
+into it.
+
+A vector loop computes both sides of every select: with the cold roots in it (a square root and
+a division each, .primitives.rsqrt_next), every contact of every step pays them in every lane,
+though under 1 % of the updates need them, and the divider bounds the loop. A ball's contact
+loop, and a cage ball's boundary contact, therefore run first without them (the Householder
+steps alone), keeping the rows they change; the lanes where a warm root was not exact where it
+counts (0.07 % of the seed's ball loops, 0.5-0.8 % in its set-up) get their rows back and run
+again with them, alone (a function of its own): the single kernel's values in either case, and
+a lane's values never depend on the other lanes of its batch (a dataset's traces are the same
+however they are grouped). The cage balls' contacts with the balls, which open and close often
+(up to 5 % of their loops need a cold root), keep the cold roots.
 """
 
 # fmt: off
@@ -43,6 +55,7 @@ import math
 from numba import njit
 
 from signatelec.engines.dem.ensemble_cages import cage_contacts
+from signatelec.engines.dem.ensemble_schedule import schedule_lanes
 from signatelec.engines.dem.lanes import (
     PARAMETER_ROWS,
     check_finite,
@@ -58,12 +71,10 @@ from signatelec.engines.dem.primitives import (
     damped_normal_force,
     inline,
     lobe_shift,
-    ring_angle_rad,
     rquart_next,
+    rquart_step,
     rsqrt_next,
-    schedule,
-    scheduled_load,
-    unbalance_force,
+    rsqrt_step,
 )
 from signatelec.engines.dem.records import OK, OVERLAP, R_INNER, R_OUTER, R_SIDE0
 from signatelec.physics import contact as _contact
@@ -74,6 +85,11 @@ linear_normal_force = inline(_contact.linear_normal_force)
 linear_elastic_energy = inline(_contact.linear_elastic_energy)
 tangential_force = inline(_contact.tangential_force)
 _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
+#: A ball's contact loop with the cold roots: rare (under 1 % of loops, seed scene), so a
+#: function of its own, compiled once, not a second copy inlined into every ball loop.
+_cold_loop = njit(fastmath=FASTMATH, error_model="numpy", _nrt=False)
+#: Row SAVED + AGAIN: 1 in a lane whose contact loop runs again with the cold roots.
+AGAIN = 17
 
 # --- rows of W and of a recorded instant (.lanes; module constants: numba compiles them in) ---
 (
@@ -83,7 +99,7 @@ _entry = njit(cache=True, fastmath=FASTMATH, error_model="numpy", _nrt=False)
 (
     NB, N2, RING, POS, VEL, ACC, ACC_NEW, SPIN, SPIN_ACC, SPIN_OLD, XI, ROT, ROOTS, FCON, SCHED,
     ENERGY_ROW, STATUS, FLAG, RATE, TIME, PHI, RING_FX, RING_FY, DRIVE, LOSS, WORK, ELASTIC,
-    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, POCKET, ROWS,
+    INV_MB, INV_MC, DTS, EVERY, COUNTDOWN, REC_INDEX, SURF, POCKET, SAVED, ROWS,
 ) = work_rows(BALLS)  # fmt: skip
 REC_TIME, REC_POS, REC_SPIN, REC_FCON, REC_SCHED, REC_ENERGY, REC_ROT, REC_ROWS = record_rows(BALLS)
 #: Geometry with defects or lobes: a contact's overlap may be <= 0 (a ball over a spall).
@@ -93,11 +109,30 @@ T_SHIFT = 1 if INTEGRATOR_VERLET else 0
 
 
 @inline
-def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, root_row):
+def root_lane(x, y, cold):
+    """:func:`.primitives.rsqrt_next` of ``x`` from ``y`` and True if ``cold``; else the
+    Householder step alone and whether it is exact (no square root, no division)."""
+    if cold:
+        return rsqrt_next(x, y), True
+    return rsqrt_step(x, y)
+
+
+@inline
+def _keep(W, lane, row, slot, restore):
+    """Lane ``lane`` of row ``row`` of W into row SAVED + ``slot``, or back (``restore``)."""
+    if restore:
+        W[row * LANES + lane] = W[(SAVED + slot) * LANES + lane]
+    else:
+        W[(SAVED + slot) * LANES + lane] = W[row * LANES + lane]
+
+
+@inline
+def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, root_row, cold):
     """:func:`.kernel.normal_contact` for one lane, masked by ``inside`` (the contact is open):
-    (normal force, sqrt(delta), delta^{1/4}, damping loss, elastic energy), zeros when closed.
-    The warm roots at ``root_row`` change only where the single-scene kernel changes them (a
-    select: in a vector loop both the warm step and the cold root are computed)."""
+    (normal force, sqrt(delta), delta^{1/4}, damping loss, elastic energy, whether the lane
+    needed a cold root), zeros when closed. The warm roots at ``root_row`` change only where
+    the single-scene kernel changes them (a select: in a vector loop both the warm step and, if
+    ``cold``, the cold root are computed; without, the lane's result stands only if exact)."""
     over = inside and overlap > limit_m  # selects, not a branch: the loop stays vectorised
     W[FLAG * LANES + lane] = 1.0 + kind + 8.0 * body if over else W[FLAG * LANES + lane]
     touch = inside
@@ -106,6 +141,7 @@ def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, ro
     coef = W[(P_NCOEF + kind) * LANES + lane]
     root = 1.0
     quarter = 1.0
+    exact = True
     if CONTACT_LAW_LINEAR:
         fe = linear_normal_force(overlap, coef)
     else:
@@ -113,13 +149,16 @@ def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, ro
         y_old = W[at]
         if DAMPING_CRITICAL:
             y_older = W[at + 10 * LANES]
-            y = rquart_next(overlap, y_old, y_older)
+            if cold:
+                y = rquart_next(overlap, y_old, y_older)
+            else:
+                y, exact = rquart_step(overlap, y_old, y_older)
             W[at + 10 * LANES] = y_old if touch else y_older
             W[at] = y if touch else y_old
             quarter = overlap * y * y * y
             root = quarter * quarter
         else:
-            y = rsqrt_next(overlap, y_old)
+            y, exact = root_lane(overlap, y_old, cold)
             W[at] = y if touch else y_old
             root = overlap * y
         fe = coef * overlap * root
@@ -136,7 +175,10 @@ def normal_lane(overlap, closing_speed, kind, limit_m, body, inside, W, lane, ro
         else:
             elastic = hertz_elastic_energy(overlap, coef)
         loss, elastic = (loss if touch else 0.0), (elastic if inside else 0.0)
-    return (fn, root, quarter, loss, elastic) if touch else (0.0, 0.0, 0.0, loss, elastic)
+    need = touch and not exact
+    if touch:
+        return fn, root, quarter, loss, elastic, need
+    return 0.0, 0.0, 0.0, loss, elastic, need
 
 
 @inline
@@ -165,63 +207,20 @@ def tangential_lane(k, side, root, quarter, slip_speed, fn, W, lane, inside):
     return ft
 
 
+# The schedule of every lane (.ensemble_schedule), made for this kernel's constants.
+_schedule_lanes = schedule_lanes(globals())
+
 # The cages' contacts (.ensemble_cages), made for this kernel's constants and normal law.
-_cage_ball_lanes, _pair_lanes, _rigid_cage_lanes = cage_contacts(globals(), normal_lane)
+_cage_ball_lanes, _pair_lanes, _rigid_cage_lanes = cage_contacts(
+    globals(), normal_lane, root_lane, _keep, _cold_loop
+)
 
 
 @_entry
 def forces(step, PR, W):
     """The new accelerations (rows ACC_NEW, SPIN_ACC) of every lane at its time (step + T_SHIFT)
     dt; also the contact forces, schedule, roots, springs, energy and this step's FLAG."""
-    for lane in range(LANES):
-        p = PR[lane]
-        dt = W[P_DT * LANES + lane]
-        t = (step + T_SHIFT) * dt
-        r_out, r_rate, fr, omega = schedule(t, p)
-        W[SCHED * LANES + lane] = r_out
-        W[(SCHED + 1) * LANES + lane] = fr
-        phi = ring_angle_rad(t, p) if DEFECTS_INNER or UNBALANCE else 0.0  # inner-ring angle
-        if LOAD_TABLE:
-            fr = scheduled_load(t, p, fr)
-            W[(SCHED + 1) * LANES + lane] = fr
-        W[(SCHED + 2) * LANES + lane] = omega
-        W[RATE * LANES + lane] = r_rate
-        W[TIME * LANES + lane] = t
-        W[PHI * LANES + lane] = phi
-        W[FLAG * LANES + lane] = 0.0
-        g = p.gravity_m_s2 if GRAVITY_STANDARD else 0.0
-        ring_fx = 0.0
-        ring_fy = -fr - p.inner_ring_mass_kg * g
-        work = 0.0
-        if UNBALANCE:
-            ufx, ufy = unbalance_force(phi, omega, p)
-            ring_fx += ufx
-            ring_fy += ufy
-            if ENERGY:
-                vr = (VEL + 2 * RING) * LANES + lane
-                work += (ufx * W[vr] + ufy * W[vr + LANES]) * dt
-        W[RING_FX * LANES + lane] = ring_fx
-        W[RING_FY * LANES + lane] = ring_fy
-        W[DRIVE * LANES + lane] = 0.0
-        W[LOSS * LANES + lane] = 0.0
-        W[ELASTIC * LANES + lane] = 0.0
-        if ENERGY:
-            vel_y = W[(VEL + 2 * RING + 1) * LANES + lane]
-            work += -fr * vel_y * dt
-            if GRAVITY_STANDARD:
-                wsum = p.inner_ring_mass_kg * vel_y
-                for k in range(BALLS):
-                    wsum += (
-                        p.ball_mass_kg * W[(VEL + 2 * k + 1) * LANES + lane]
-                        + p.cage_ball_mass_kg * W[(VEL + 2 * (BALLS + k) + 1) * LANES + lane]
-                    )
-                if CAGE_RIGID:
-                    wsum += p.rigid_cage_mass_kg * W[(VEL + 2 * BALLS + 1) * LANES + lane]
-                work += -g * wsum * dt
-        W[WORK * LANES + lane] = work
-    for lane in range(LANES):  # a vector division each, not one per body and lane
-        W[INV_MB * LANES + lane] = 1.0 / W[P_MB * LANES + lane]
-        W[INV_MC * LANES + lane] = 1.0 / W[P_MC * LANES + lane]
+    _schedule_lanes(step, PR, W)
     if not CAGE_BALLS:
         for i in range(2 * BALLS * LANES, 4 * BALLS * LANES):
             W[ACC_NEW * LANES + i] = 0.0
@@ -267,10 +266,6 @@ def _ball_lanes(k, PR, W):
     surface (defects, lobes) lowers each overlap as in the kernel, from each lane's PR."""
     bx = (POS + 2 * k) * LANES
     ring = (POS + 2 * RING) * LANES
-    vb = (VEL + 2 * k) * LANES
-    vr = (VEL + 2 * RING) * LANES
-    root = (ROOTS + 20 * k) * LANES
-    fc = (FCON + 6 * k) * LANES
     # The local surface first, in a loop of its own: scalar (its loop over the defects), it
     # leaves the contacts' loop vector; only at the contacts that touch, as in the kernel.
     for lane in range(LANES if SURFACE else 0):
@@ -295,7 +290,56 @@ def _ball_lanes(k, PR, W):
             W[(SURF + 1) * LANES + lane] = lobe_shift(W[TIME * LANES + lane], theta, PR[lane])
         if DEFECTS_OUTER or DEFECTS_BALL:
             W[(SURF + 2) * LANES + lane] = contact_drop(OUTER_SIDE, theta, phi, k, PR[lane], rot)
+    # Without the cold roots first; the lanes that needed one (rare) again with them from the
+    # rows as they were (the loop is the single kernel's in either case, and a lane's values
+    # do not depend on the other lanes of its batch).
+    if _ball_contacts(k, W, False):
+        for lane in range(LANES):
+            if W[(SAVED + AGAIN) * LANES + lane] != 0.0:
+                _ball_state(k, W, lane, True)
+        _ball_contacts_cold(k, W)
+
+
+@inline
+def _ball_state(k, W, lane, restore):
+    """Keep in rows SAVED the rows of W that ball k's contact loop changes in lane ``lane``
+    (its roots, FLAG, the sums, its springs), or put them back (``restore``)."""
+    root = ROOTS + 20 * k
+    _keep(W, lane, root + R_INNER, 0, restore)
+    _keep(W, lane, root + R_INNER + 1, 1, restore)
+    _keep(W, lane, root + R_INNER + 11, 2, restore)
+    _keep(W, lane, root + R_OUTER, 3, restore)
+    _keep(W, lane, root + R_OUTER + 1, 4, restore)
+    _keep(W, lane, root + R_OUTER + 11, 5, restore)
+    _keep(W, lane, FLAG, 6, restore)
+    _keep(W, lane, DRIVE, 7, restore)
+    _keep(W, lane, RING_FX, 8, restore)
+    _keep(W, lane, RING_FY, 9, restore)
+    if ENERGY:
+        _keep(W, lane, LOSS, 10, restore)
+        _keep(W, lane, ELASTIC, 11, restore)
+        _keep(W, lane, WORK, 12, restore)
+    if TANGENTIAL_SPRING:
+        for i in range(4):
+            _keep(W, lane, XI + 4 * k + i, 13 + i, restore)
+
+
+@inline
+def _ball_contacts(k, W, cold):
+    """The contacts of :func:`_ball_lanes`, with the cold roots if ``cold``; the number of
+    lanes that needed one (0 if ``cold``)."""
+    bx = (POS + 2 * k) * LANES
+    ring = (POS + 2 * RING) * LANES
+    vb = (VEL + 2 * k) * LANES
+    vr = (VEL + 2 * RING) * LANES
+    root = (ROOTS + 20 * k) * LANES
+    fc = (FCON + 6 * k) * LANES
+    cold_lanes = 0
     for lane in range(LANES):
+        if cold and W[(SAVED + AGAIN) * LANES + lane] == 0.0:
+            continue  # a lane the first pass left exact
+        if not cold:  # the rows as they were, for a second pass with the cold roots
+            _ball_state(k, W, lane, False)
         dt = W[P_DT * LANES + lane]
         rb = W[P_RB * LANES + lane]
         rin = W[P_RIN * LANES + lane]
@@ -324,8 +368,9 @@ def _ball_lanes(k, PR, W):
         inside = d2 < reach * reach
         at = root + R_INNER * LANES + lane
         inv_old = W[at]
-        inv = rsqrt_next(d2, inv_old)
+        inv, exact = root_lane(d2, inv_old, cold)
         W[at] = inv if inside else inv_old
+        need = inside and not exact
         nx = dx * inv
         ny = dy * inv
         rvx = vx - W[vr + lane]
@@ -334,9 +379,10 @@ def _ball_lanes(k, PR, W):
         ov = reach - d2 * inv
         if DEFECTS_INNER or DEFECTS_BALL:  # the overlap with the local surface
             ov -= W[SURF * LANES + lane]
-        fn, rd, qd, dloss, de = normal_lane(
-            ov, vclose, 0, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_INNER + 1
+        fn, rd, qd, dloss, de, need_root = normal_lane(
+            ov, vclose, 0, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_INNER + 1, cold
         )
+        need = need or need_root
         loss += dloss
         elastic += de
         fx = fn * nx
@@ -368,8 +414,9 @@ def _ball_lanes(k, PR, W):
         inside = r2 > inside_r * inside_r
         at = root + R_OUTER * LANES + lane
         inv_old = W[at]
-        inv = rsqrt_next(r2, inv_old)
+        inv, exact = root_lane(r2, inv_old, cold)
         W[at] = inv if (inside or CENTRIFUGAL_COMPENSATED) else inv_old
+        need = need or ((inside or CENTRIFUGAL_COMPENSATED) and not exact)
         r = r2 * inv
         nx = x * inv
         ny = y * inv
@@ -386,9 +433,12 @@ def _ball_lanes(k, PR, W):
             ov -= W[(SURF + 1) * LANES + lane]
         if DEFECTS_OUTER or DEFECTS_BALL:
             ov -= W[(SURF + 2) * LANES + lane]
-        fn, rd, qd, dloss, de = normal_lane(
-            ov, vclose, 1, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_OUTER + 1
+        fn, rd, qd, dloss, de, need_root = normal_lane(
+            ov, vclose, 1, ball_limit, k, inside, W, lane, ROOTS + 20 * k + R_OUTER + 1, cold
         )
+        need = need or need_root
+        W[(SAVED + AGAIN) * LANES + lane] = 1.0 if need else 0.0
+        cold_lanes += need
         loss += dloss
         elastic += de
         fx = -fn * nx
@@ -415,6 +465,13 @@ def _ball_lanes(k, PR, W):
         W[(ACC_NEW + 2 * k) * LANES + lane] = ball_fx
         W[(ACC_NEW + 2 * k + 1) * LANES + lane] = ball_fy
         W[(SPIN_ACC + k) * LANES + lane] = torque / W[P_IB * LANES + lane]  # as kernel.py's
+    return cold_lanes
+
+
+@_cold_loop
+def _ball_contacts_cold(k, W):
+    """:func:`_ball_contacts` with the cold roots."""
+    _ball_contacts(k, W, True)
 
 
 @njit(error_model="numpy", _nrt=False)
@@ -515,6 +572,9 @@ def run(PR, W, rec, step0, n_steps):
 @_entry
 def start(PR, W):
     """Initial accelerations at t = 0 of every lane (needed by velocity Verlet)."""
+    for lane in range(LANES):  # reciprocal masses, once per run
+        W[INV_MB * LANES + lane] = 1.0 / W[P_MB * LANES + lane]
+        W[INV_MC * LANES + lane] = 1.0 / W[P_MC * LANES + lane]
     for r in range(N2 * LANES):  # each lane's dt, once per body coordinate (run's loops)
         W[DTS * LANES + r] = W[P_DT * LANES + r % LANES]
     for lane in range(LANES):  # step 0: each lane's first record after EVERY steps

@@ -20,17 +20,20 @@ from signatelec.engines.dem.records import R_SIDE0, R_SIDE1, R_WALL
 #: The ensemble kernel's constants the cages' contacts read.
 CONSTANTS = (
     "LANES", "BALLS", "ENERGY", "GRAVITY_STANDARD", "POS", "VEL", "ACC_NEW", "ROOTS", "FCON",
-    "LOSS", "ELASTIC", "INV_MB", "INV_MC", "POCKET", "P_RB", "P_RC", "P_RP", "P_G", "P_MC",
-    "P_LIMIT",
+    "LOSS", "ELASTIC", "INV_MB", "INV_MC", "POCKET", "FLAG", "SAVED", "AGAIN", "P_RB", "P_RC",
+    "P_RP", "P_G", "P_MC", "P_LIMIT",
 )  # fmt: skip
 
 
-def cage_contacts(constants: dict, normal_lane):
+def cage_contacts(constants: dict, normal_lane, root_lane, keep, cold_loop):
     """(cage_ball_lanes, pair_lanes, rigid_cage_lanes) of the ensemble kernel whose module
-    constants are ``constants`` (its globals: :data:`CONSTANTS`) and normal law ``normal_lane``."""
+    constants are ``constants`` (its globals: :data:`CONSTANTS`), normal law ``normal_lane``,
+    warm root ``root_lane``, row keeper ``keep`` and decorator of a loop with the cold roots
+    ``cold_loop``: a cage ball's boundary contact runs as a ball's (:mod:`.ensemble`), first
+    without the cold roots, again with them where a lane needed one."""
     (
         LANES, BALLS, ENERGY, GRAVITY_STANDARD, POS, VEL, ACC_NEW, ROOTS, FCON, LOSS, ELASTIC,
-        INV_MB, INV_MC, POCKET, P_RB, P_RC, P_RP, P_G, P_MC, P_LIMIT,
+        INV_MB, INV_MC, POCKET, FLAG, SAVED, AGAIN, P_RB, P_RC, P_RP, P_G, P_MC, P_LIMIT,
     ) = (constants[name] for name in CONSTANTS)  # fmt: skip
 
     @inline
@@ -44,11 +47,44 @@ def cage_contacts(constants: dict, normal_lane):
     def cage_ball_lanes(j, nxt, last_j, last_nxt, W):
         """Cage ball j on its boundaries, balls j and ``nxt`` (j + 1); a lane loop per contact.
         ``last_j``, ``last_nxt``: that contact is the ball's last (its F / m follows)."""
+        if wall_lanes(j, W, False):  # as a ball's contacts (.ensemble._ball_lanes)
+            for lane in range(LANES):
+                if W[(SAVED + AGAIN) * LANES + lane] != 0.0:
+                    wall_state(j, W, lane, True)
+            wall_lanes_cold(j, W)
+        # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
+        c = BALLS + j
+        root = ROOTS + 20 * j
+        pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W, 1 if last_j else 0)
+        pair_lanes(c, nxt, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W, 3 if last_nxt else 2)
+
+    @inline
+    def wall_state(j, W, lane, restore):
+        """Keep (or put back) the rows cage ball j's boundary contact changes in lane ``lane``."""
+        root = ROOTS + 20 * j + R_WALL
+        keep(W, lane, root, 0, restore)
+        keep(W, lane, root + 1, 1, restore)
+        keep(W, lane, root + 11, 2, restore)
+        keep(W, lane, FLAG, 3, restore)
+        if ENERGY:
+            keep(W, lane, LOSS, 4, restore)
+            keep(W, lane, ELASTIC, 5, restore)
+
+    @inline
+    def wall_lanes(j, W, cold):
+        """Cage ball j on its boundaries at r_p -+ r_c, every lane, with the cold roots if
+        ``cold``: its weight and that force into its row of ACC_NEW; the number of lanes that
+        needed a cold root (0 if ``cold``)."""
         c = BALLS + j
         cx_at = (POS + 2 * c) * LANES
         vc = (VEL + 2 * c) * LANES
         at_wall = (ROOTS + 20 * j + R_WALL) * LANES
+        cold_lanes = 0
         for lane in range(LANES):
+            if cold and W[(SAVED + AGAIN) * LANES + lane] == 0.0:
+                continue  # a lane the first pass left exact
+            if not cold:  # the rows as they were, for a second pass with the cold roots
+                wall_state(j, W, lane, False)
             rc = W[P_RC * LANES + lane]
             rp = W[P_RP * LANES + lane]
             g = W[P_G * LANES + lane] if GRAVITY_STANDARD else 0.0
@@ -58,7 +94,7 @@ def cage_contacts(constants: dict, normal_lane):
             cage_fy = -W[P_MC * LANES + lane] * g
             # cage ball / its two boundaries at r_p -+ r_c (table 2 "cage/cage")
             r2 = cx * cx + cy * cy
-            inv = rsqrt_next(r2, W[at_wall + lane])
+            inv, exact = root_lane(r2, W[at_wall + lane], cold)
             W[at_wall + lane] = inv
             nx = cx * inv
             ny = cy * inv
@@ -66,17 +102,22 @@ def cage_contacts(constants: dict, normal_lane):
             on = ov != 0.0
             sgn = 1.0 if ov > 0.0 else -1.0
             vclose = sgn * (W[vc + lane] * nx + W[vc + LANES + lane] * ny)
-            fn, rd, qd, dloss, de = normal_lane(
+            fn, rd, qd, dloss, de, need = normal_lane(
                 abs(ov), vclose, 3, W[P_LIMIT * LANES + lane] * rc, c, on, W, lane,
-                ROOTS + 20 * j + R_WALL + 1,
+                ROOTS + 20 * j + R_WALL + 1, cold,
             )  # fmt: skip
             add_energy(W, lane, dloss, de)
             W[(ACC_NEW + 2 * c) * LANES + lane] = cage_fx - sgn * fn * nx if on else cage_fx
             W[(ACC_NEW + 2 * c + 1) * LANES + lane] = cage_fy - sgn * fn * ny if on else cage_fy
-        # cage ball j against ball j (slot R_SIDE0) and ball j + 1 (R_SIDE1), then F / m
-        root = ROOTS + 20 * j
-        pair_lanes(c, j, 2, P_RC, c, root + R_SIDE0, FCON + 6 * j + 4, W, 1 if last_j else 0)
-        pair_lanes(c, nxt, 2, P_RC, c, root + R_SIDE1, FCON + 6 * j + 5, W, 3 if last_nxt else 2)
+            need = need or not exact
+            W[(SAVED + AGAIN) * LANES + lane] = 1.0 if need else 0.0
+            cold_lanes += need
+        return cold_lanes
+
+    @cold_loop
+    def wall_lanes_cold(j, W):
+        """:func:`wall_lanes` with the cold roots."""
+        wall_lanes(j, W, True)
 
     @inline
     def pair_lanes(a, b, kind, radius_row, body, root_row, fcon_row, W, last):
@@ -100,9 +141,9 @@ def cage_contacts(constants: dict, normal_lane):
             rvx = W[(VEL + 2 * a) * LANES + lane] - W[(VEL + 2 * b) * LANES + lane]
             rvy = W[(VEL + 2 * a + 1) * LANES + lane] - W[(VEL + 2 * b + 1) * LANES + lane]
             vclose = -(rvx * nx + rvy * ny)
-            fn, rd, qd, dloss, de = normal_lane(
+            fn, rd, qd, dloss, de, _ = normal_lane(
                 reach - d2 * inv, vclose, kind, W[P_LIMIT * LANES + lane] * radius, body, inside,
-                W, lane, root_row + 1,
+                W, lane, root_row + 1, True,
             )  # fmt: skip
             add_energy(W, lane, dloss, de)
             fx = fn * nx if inside else 0.0
@@ -155,10 +196,10 @@ def cage_contacts(constants: dict, normal_lane):
                 # closing: ball centre away from the pocket centre (a cage point: v_c + w x r)
                 vx = W[(VEL + 2 * k) * LANES + lane] - W[vcage + lane] + wc * oy
                 vy = W[(VEL + 2 * k + 1) * LANES + lane] - W[vcage + LANES + lane] - wc * ox
-                fn, rd, qd, dloss, de = normal_lane(
+                fn, rd, qd, dloss, de, _ = normal_lane(
                     d2 * inv - gap, vx * nx + vy * ny, 5,
                     W[P_LIMIT * LANES + lane] * W[P_RB * LANES + lane], k, inside, W, lane,
-                    ROOTS + 20 * k + R_SIDE0 + 1,
+                    ROOTS + 20 * k + R_SIDE0 + 1, True,
                 )  # fmt: skip
                 add_energy(W, lane, dloss, de)
                 fx = fn * nx if inside else 0.0

@@ -86,6 +86,8 @@ class WorkRows(NamedTuple):
     REC_INDEX: int  # its next free recorded instant
     SURF: int  # 3: under the ball of this contact loop, the inner drop, lobes, outer drop
     POCKET: int  # 5: the rigid cage's pocket direction u_k (x, y), its force (x, y), torque
+    SAVED: int  # 18: the rows a ball's contact loop changes, as they were before it, and
+    # whether each lane needs the loop again with the cold roots
     ROWS: int  # the total
 
 
@@ -99,6 +101,7 @@ def work_rows(balls: int) -> WorkRows:
         "FLAG": 1, "RATE": 1, "TIME": 1, "PHI": 1, "RING_FX": 1, "RING_FY": 1, "DRIVE": 1,
         "LOSS": 1, "WORK": 1, "ELASTIC": 1, "INV_MB": 1, "INV_MC": 1, "DTS": 2 * nb,
         "EVERY": 1, "COUNTDOWN": 1, "REC_INDEX": 1, "SURF": 3, "POCKET": 5,
+        "SAVED": 18,
     }  # fmt: skip
     rows = {"NB": nb, "N2": 2 * nb, "RING": 2 * balls}
     row = PARAM_ROWS["_total"]
