@@ -62,8 +62,8 @@ Z90 = stats.norm.ppf(0.95)
 #: stretch without a regime.
 BIAS_RATIO = {
     "radial_load_n": {"any": 0.463, "clearance": 0.901, "preload": 0.551, "zero": 0.185},
-    "epsilon": {"any": 0.505, "clearance": 0.926, "preload": 0.605, "zero": 0.202},
-    "clearance_m": {"any": 0.460, "clearance": 0.816, "preload": 0.518, "zero": 0.134},
+    "epsilon": {"any": 0.504, "clearance": 0.926, "preload": 0.605, "zero": 0.180},
+    "clearance_m": {"any": 0.462, "clearance": 0.816, "preload": 0.518, "zero": 0.116},
 }
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"

@@ -243,7 +243,15 @@ try:
 except SystemExit as exc:
     code = exc.code
 u = resource.getrusage(resource.RUSAGE_SELF)
-print(json.dumps({"cpu_s": u.ru_utime + u.ru_stime, "max_rss_mb": u.ru_maxrss / 1024,
+# ru_maxrss keeps the high-water mark of the parent's memory that was forked before exec (Linux
+# setmax_mm_hiwater_rss); this process's own peak is VmHWM of its address space
+rss_kb = u.ru_maxrss
+try:
+    with open("/proc/self/status") as status:
+        rss_kb = next(int(l.split()[1]) for l in status if l.startswith("VmHWM:"))
+except (OSError, StopIteration):
+    pass
+print(json.dumps({"cpu_s": u.ru_utime + u.ru_stime, "max_rss_mb": rss_kb / 1024,
                   "wall_s": time.time() - wall}))
 """
 
