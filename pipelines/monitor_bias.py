@@ -83,11 +83,12 @@ def estimates(model, frame: pd.DataFrame) -> pd.DataFrame:
 
 def combine(est: pd.DataFrame) -> pd.DataFrame:
     """Per state, fidelity and kind: the stretch-like combination (mean of log F_r, epsilon,
-    clearance; summed regime log-probabilities)."""
-    probs = [c for c in est.columns if c.startswith("regime_probability_")]
+    clearance; the regime of the summed log-probabilities, :func:`combine_classes`)."""
+    from signatelec.estimation.evidence import combine_classes
+
     out = []
     for (state, fid, kind), g in est.groupby(["state", "fidelity", "kind"]):
-        logp = np.log(np.clip(g[probs].to_numpy(float), 1e-12, 1)).sum(axis=0)
+        probs = combine_classes(g, "regime")
         out.append(
             {
                 "state": state,
@@ -98,9 +99,7 @@ def combine(est: pd.DataFrame) -> pd.DataFrame:
                 "clearance_m": float(g.clearance_m.mean()),
                 "clearance_sd": float(g.clearance_m.std()),
                 "clearance_half_m": float(((g.clearance_m_high - g.clearance_m_low) / 2).mean()),
-                "regime_classifier": probs[int(np.argmax(logp))].removeprefix(
-                    "regime_probability_"
-                ),
+                "regime_classifier": max(probs, key=probs.get),
                 "windows_regime": list(g.regime),
             }
         )

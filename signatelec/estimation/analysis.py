@@ -15,6 +15,7 @@ spectra of one continuous signal do not depend on the sampling rate or the trace
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -164,14 +165,12 @@ def _find_ball_pass(
     return found, ratio
 
 
+@functools.lru_cache(maxsize=4)
 def _hann(n: int) -> np.ndarray:
-    """np.hanning(n), kept for the next block of windows of the same length."""
-    if _HANN.get("n") != n:
-        _HANN.update(n=n, window=np.hanning(n))
-    return _HANN["window"]
-
-
-_HANN: dict = {}
+    """np.hanning(n), kept for the next block of windows of the same length (read-only)."""
+    window = np.hanning(n)
+    window.flags.writeable = False
+    return window
 
 
 def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]:

@@ -317,10 +317,10 @@ def faulty_load_rows(condition_table: pd.DataFrame, first_run_id: int) -> pd.Dat
     return out
 
 
-def default_training_table() -> pd.DataFrame:
-    """The default model's load-state rows: :data:`DEFAULT_TABLE`, then :data:`PAPER_TABLE`
-    (when shipped)."""
-    parts = [pd.read_parquet(DEFAULT_TABLE)]
+def default_training_table(table: pd.DataFrame | None = None) -> pd.DataFrame:
+    """The default model's load-state rows: ``table`` (default :data:`DEFAULT_TABLE`, or a
+    fresh :func:`shipped_table`), then :data:`PAPER_TABLE` (when shipped)."""
+    parts = [pd.read_parquet(DEFAULT_TABLE) if table is None else table]
     if PAPER_TABLE.is_file():
         parts.append(pd.read_parquet(PAPER_TABLE))
     table = pd.concat(parts, ignore_index=True)

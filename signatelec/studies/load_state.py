@@ -44,7 +44,7 @@ from signatelec.estimation.features import trace_features
 from signatelec.estimation.models import LoadStateModel
 from signatelec.estimation.persistence import save_model
 from signatelec.estimation.training import (
-    PAPER_TABLE,
+    default_training_table,
     shipped_rows,
     shipped_table,
     train_default_model,
@@ -401,8 +401,7 @@ def run_study(
     log(f"model: {model.info['n_rows']} rows, fit {model.info['fit_s']} s")
 
     shipped = shipped_table(train)
-    paper = [pd.read_parquet(PAPER_TABLE)] if PAPER_TABLE.is_file() and not quick else []
-    default = train_default_model(pd.concat([shipped, *paper], ignore_index=True))
+    default = train_default_model(shipped if quick else default_training_table(shipped))
     test_default = predict_rows(default, test_eval)
     log(
         f"default model (shipped table): {default.info['n_rows']} rows, "
