@@ -2,22 +2,31 @@
 
 **Change points** (:func:`change_points`): binary segmentation with a Gaussian generalised
 likelihood-ratio statistic for a change of mean (Basseville & Nikiforov 1993, *Detection of
-Abrupt Changes*, section 2.4; binary segmentation: Vostrikova 1981) on the standardised series
-of :func:`detector_series`: log level, log F_r, epsilon, the ripple's first two harmonics and
+Abrupt Changes*, section 2.4; binary segmentation: Vostrikova 1981) on the series of
+:func:`detector_series`: log level, log F_r, epsilon, the ripple's first two harmonics and
 the log-odds of each class output but the regime (a bearing condition, when the model has
 one); the regime follows epsilon and the ripple, and its classifier's log-odds only add their
 scatter where a state lies on a regime boundary (a held-out state 1 um from preload split into
 spurious zero/preload stretches with them).
-The series are whitened with the covariance of their within-stretch residuals and scaled by
-their long-run variance (Bartlett window over the residuals' autocorrelation), so that
-correlated windows do not pass for independent evidence. The statistic of a split at k of a
-segment of n windows, T_k = k (n - k) / n |mean_left - mean_right|^2, is chi^2 with d degrees
+Each window has a precision of its own, P_i = D_i^(-1/2) R^(-1) D_i^(-1/2): D_i the local
+variance of each series (:func:`_local_variance`: residuals about a running median, which
+follows the majority side of a step, averaged over a few seconds) and R their correlation over
+the record. The model's outputs scatter very differently from one state to another (epsilon's
+window-to-window standard deviation spans 17x over the DEM states of the monitoring study's
+calibration bank, log F_r 7x; the log level and harmonics, set by the noise, within 1.3x):
+one variance pooled over a record read the windows of a noisy state as changes (8 spurious
+changes in 40 calibration records; docs/monitor/change_detection.md). The statistic of a
+split at k compares the precision-weighted means of the two sides, T_k = (m_L - m_R)'
+(A^-1 + B^-1)^-1 (m_L - m_R), A and B the sums of the sides' precisions: chi^2 with d degrees
 of freedom under no change; each candidate split is tested at ``false_alarm_per_hour`` x
 hop / 1 h, so that (Bonferroni) at most that many false changes are expected per hour of
 trace; a change's ``probability`` is 1 - its Bonferroni-corrected p-value over its segment.
-A segmentation runs twice: the first, with the scale of first differences, gives the residuals
-the second's whitening and long-run variance are read from. Each change found is then placed
-again by the same statistic between its neighbours.
+A segmentation runs twice: the second reads the local variances within the first's segments
+and divides T by the long-run variance factor of the residuals (Bartlett window over their
+autocorrelation; ~1 on the DEM records: their windows are independent), so that correlated
+windows do not pass for independent evidence. Each change found is then placed again by the
+same statistic between its neighbours. Every change point is reported; :func:`alarms` says
+which are material.
 
 **Stretches** (:func:`combine_stretch`): the windows between two changes. A regression target
 (F_r on a log scale, epsilon, clearance) is the mean of the window estimates, a model of the
@@ -113,6 +122,16 @@ def _robust_scale(x: np.ndarray) -> np.ndarray:
 #: Smallest variance of a whitened direction, in units of the standardised series: a series
 #: constant within every stretch (a saturated classifier) keeps its steps as evidence.
 MIN_VARIANCE = 1e-3
+#: Half-width, in windows, of the neighbourhood a window's local scatter is averaged over
+#: (:func:`_local_variance`; 4.2 s at 0.2 s windows).
+SCATTER_HALF_WIDTH = 10
+#: Mean of the squared residuals about a running median of 7, averaged over 21 windows, over
+#: sigma^2, such that the precision it gives is unbiased on independent Gaussian windows
+#: (1 / E[sigma^2 / v], measured on 400 000 white-noise windows: 0.807; the residuals' own
+#: mean square is 0.925 sigma^2, the median being correlated with its centre).
+LOCAL_PRECISION_FACTOR = 0.807
+#: Smallest local variance of a series relative to its median over the record.
+LOCAL_FLOOR = 0.1
 
 
 def effective_fraction(x: np.ndarray) -> float:
@@ -135,67 +154,122 @@ def effective_fraction(x: np.ndarray) -> float:
     return float(min(1.0, max(1.0 / n, 1.0 / (1.0 + 2.0 * acc))))
 
 
-def _best_split(cum: np.ndarray, a: int, b: int) -> tuple[int, float]:
-    """(k, T_k) of the largest GLR statistic over splits of [a, b) (whitened series)."""
-    n = b - a
+def _local_variance(z: np.ndarray, edges: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(variance, residual) per window and series: the scatter about the current state's level,
+    within each segment of ``edges``. The residuals are about a running median of 2
+    :data:`MIN_SEGMENT` + 1 windows (which follows the majority side of a step, so that a change
+    does not read as scatter; the first and last windows of a segment take the median of its
+    first or last 2 :data:`MIN_SEGMENT` + 1), squared and averaged over 2
+    :data:`SCATTER_HALF_WIDTH` + 1 windows within the segment, over
+    :data:`LOCAL_PRECISION_FACTOR`; at least :data:`LOCAL_FLOOR` of the series' median local
+    variance over the record (a series clipped at zero, such as a harmonic below the noise,
+    can sit still for many windows) and at least :data:`MIN_VARIANCE`."""
+    from scipy.ndimage import median_filter
+
+    h = MIN_SEGMENT
+    r = np.empty_like(z)
+    var = np.empty_like(z)
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        seg = z[a:b]
+        m = median_filter(seg, size=(2 * h + 1, 1), mode="nearest")
+        m[:h] = np.median(seg[: 2 * h + 1], axis=0)
+        m[-h:] = np.median(seg[-(2 * h + 1) :], axis=0)
+        r[a:b] = seg - m
+        cum = np.vstack([np.zeros(z.shape[1]), np.cumsum(r[a:b] ** 2, axis=0)])
+        # the neighbourhood is shifted, not cut, at the segment's ends: as many residuals
+        # everywhere (fewer would overstate the precision, 1 / v being convex)
+        width = min(2 * SCATTER_HALF_WIDTH + 1, b - a)
+        lo = np.clip(np.arange(b - a) - SCATTER_HALF_WIDTH, 0, b - a - width)
+        hi = lo + width
+        var[a:b] = (cum[hi] - cum[lo]) / (hi - lo)[:, None]
+    var /= LOCAL_PRECISION_FACTOR
+    floor = np.maximum(LOCAL_FLOOR * np.median(var, axis=0), MIN_VARIANCE)
+    return np.maximum(var, floor), r
+
+
+def _precisions(z: np.ndarray, edges: list[int]) -> np.ndarray:
+    """(n, d, d) precision of each window: D_i^(-1/2) R^(-1) D_i^(-1/2), D_i its series' local
+    variances (:func:`_local_variance` within the segments of ``edges``), R the correlation of
+    the locally standardised residuals over the record (eigenvalues at least
+    :data:`MIN_VARIANCE`)."""
+    var, r = _local_variance(z, edges)
+    s = 1.0 / np.sqrt(var)
+    u = r * s
+    sd = u.std(axis=0)
+    # a series without scatter (a saturated classifier) is uncorrelated with the others
+    u = np.divide(u - u.mean(axis=0), sd, out=np.zeros_like(u), where=sd > 0)
+    corr = u.T @ u / u.shape[0]
+    corr[np.diag_indices_from(corr)] = 1.0
+    w, v = np.linalg.eigh(corr)
+    inv = (v / np.maximum(w, MIN_VARIANCE)) @ v.T
+    return s[:, :, None] * inv[None] * s[:, None, :]
+
+
+def _best_split(cum_p, cum_px, a: int, b: int) -> tuple[int, float]:
+    """(k, T_k) of the largest GLR statistic over splits of [a, b): the precision-weighted
+    means of the two sides, T_k = (m_L - m_R)' (A^-1 + B^-1)^-1 (m_L - m_R), A and B the sums
+    of the sides' precisions (chi^2 with d degrees of freedom under no change)."""
     ks = np.arange(a + MIN_SEGMENT, b - MIN_SEGMENT + 1)
     if ks.size == 0:
         return -1, 0.0
-    left = cum[ks] - cum[a]
-    total = cum[b] - cum[a]
-    nl = (ks - a)[:, None].astype(float)
-    diff = left / nl - (total - left) / (n - nl)
-    t = (nl[:, 0] * (n - nl[:, 0]) / n) * np.einsum("ij,ij->i", diff, diff)
+    inv_a = np.linalg.inv(cum_p[ks] - cum_p[a])
+    inv_b = np.linalg.inv(cum_p[b] - cum_p[ks])
+    m_l = np.einsum("kij,kj->ki", inv_a, cum_px[ks] - cum_px[a])
+    m_r = np.einsum("kij,kj->ki", inv_b, cum_px[b] - cum_px[ks])
+    delta = m_l - m_r
+    t = np.einsum("ki,ki->k", delta, np.linalg.solve(inv_a + inv_b, delta[:, :, None])[:, :, 0])
     i = int(np.argmax(t))
     return int(ks[i]), float(t[i])
 
 
-def _segment(z: np.ndarray, alpha_per_split: float) -> list[tuple[int, float]]:
-    """Binary segmentation of a whitened series: [(index, p-value)] of the changes."""
+def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float = 1.0):
+    """Binary segmentation of series ``z`` with window precisions ``p`` (the statistic divided
+    by the long-run variance ``factor``): [(index, p-value)] of the changes."""
     n, d = z.shape
-    cum = np.vstack([np.zeros(d), np.cumsum(z, axis=0)])
+    cum_p = np.concatenate([np.zeros((1, d, d)), np.cumsum(p, axis=0)])
+    cum_px = np.vstack([np.zeros(d), np.cumsum(np.einsum("kij,kj->ki", p, z), axis=0)])
+
+    def best(a, b):
+        k, t = _best_split(cum_p, cum_px, a, b)
+        return k, t / factor
+
     found, todo = [], [(0, n)]
     threshold = stats.chi2.isf(alpha_per_split, d)
     while todo:
         a, b = todo.pop()
-        k, t = _best_split(cum, a, b)
+        k, t = best(a, b)
         if k < 0 or t <= threshold:
             continue
-        p = min(1.0, (b - a - 1) * stats.chi2.sf(t, d))
-        found.append((k, p))
+        p_value = min(1.0, (b - a - 1) * stats.chi2.sf(t, d))
+        found.append((k, p_value))
         todo += [(a, k), (k, b)]
     found.sort()
     # place each change again between its neighbours (binary segmentation's first splits
     # see several changes at once)
     edges = [0] + [k for k, _ in found] + [n]
     placed = []
-    for i, (_, p) in enumerate(found):
-        k, t = _best_split(cum, edges[i], edges[i + 2])
+    for i, (_, p_value) in enumerate(found):
+        k, t = best(edges[i], edges[i + 2])
         if k > 0:
             edges[i + 1] = k
-            p = min(p, min(1.0, (edges[i + 2] - edges[i] - 1) * stats.chi2.sf(t, d)))
-        placed.append((edges[i + 1], p))
+            p_value = min(p_value, min(1.0, (edges[i + 2] - edges[i] - 1) * stats.chi2.sf(t, d)))
+        placed.append((edges[i + 1], p_value))
     return placed
 
 
-def _whiten(x: np.ndarray, changes: list[int]) -> np.ndarray:
-    """Whiten standardised series with the covariance of their within-segment residuals (each
-    direction's variance at least :data:`MIN_VARIANCE`), and divide by the square root of
-    their long-run variance factor (the median over columns of n / n_eff)."""
-    edges = [0, *changes, x.shape[0]]
-    res = np.vstack(
-        [x[a:b] - x[a:b].mean(axis=0) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
-    )
-    cov = np.cov(res, rowvar=False) if res.shape[0] > res.shape[1] + 1 else None
-    if cov is None or not np.all(np.isfinite(cov)):
-        return x
-    cov = np.atleast_2d(cov)
-    w, v = np.linalg.eigh(cov)
-    w = np.maximum(w, MIN_VARIANCE)
-    white = x @ v / np.sqrt(w)
-    wres = res @ v / np.sqrt(w)
-    factor = np.median([1.0 / effective_fraction(wres[:, j]) for j in range(wres.shape[1])])
-    return white / math.sqrt(factor)
+def _long_run_factor(p: np.ndarray, z: np.ndarray, changes: list[int]) -> float:
+    """The median over whitened directions of n / n_eff of the residuals about the segments'
+    weighted means (:func:`effective_fraction`): correlated windows are not independent
+    evidence."""
+    edges = [0, *changes, z.shape[0]]
+    res = np.empty_like(z)
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        m = np.linalg.solve(p[a:b].sum(axis=0), np.einsum("kij,kj->i", p[a:b], z[a:b]))
+        res[a:b] = z[a:b] - m
+    # whiten each window with its own precision (Cholesky factor: u' u = r' P r)
+    chol = np.linalg.cholesky(p)
+    u = np.einsum("kji,kj->ki", chol, res)
+    return float(np.median([1.0 / effective_fraction(u[:, j]) for j in range(u.shape[1])]))
 
 
 def change_points(
@@ -211,9 +285,13 @@ def change_points(
         return []
     alpha = min(0.5, false_alarm_per_hour * hop_s / 3600.0)
     z = x / _robust_scale(x)
-    first = _segment(z, alpha)
-    second = _segment(_whiten(z, [k for k, _ in first]), alpha)
-    return [(int(rows[k]), 1.0 - p) for k, p in second]
+    z -= np.median(z, axis=0)
+    p = _precisions(z, [0, z.shape[0]])
+    first = [k for k, _ in _segment(p, z, alpha)]
+    # the second pass reads each window's scatter within its first-pass segment
+    p = _precisions(z, [0, *first, z.shape[0]])
+    second = _segment(p, z, alpha, _long_run_factor(p, z, first))
+    return [(int(rows[k]), 1.0 - p_value) for k, p_value in second]
 
 
 def combine_target(values, low, high, log: bool, bias_ratio: float) -> dict:
@@ -294,31 +372,18 @@ def usable(windows: pd.DataFrame) -> pd.DataFrame:
     return good.sort_values("start_s").reset_index(drop=True)
 
 
-def _material(before: dict, after: dict, load_threshold: float) -> float:
-    """How far two stretches differ in what a change is reported for: |log F_r ratio| over
-    log(1 + load_threshold) (>= 1 when beyond it), or 1 + the probability that a class
-    output differs when its most probable class does (0 when nothing counts)."""
-    score = 0.0
-    if "radial_load_n" in before:
-        ratio = abs(math.log(after["radial_load_n"] / before["radial_load_n"]))
-        score = ratio / math.log1p(load_threshold)
-    for name in CLASS_OUTPUTS:
-        if before.get(name) is not None and before.get(name) != after.get(name):
-            keys = [k for k in before if k.startswith(f"{name}_probability_")]
-            differ = 1.0 - sum(before[k] * after.get(k, 0.0) for k in keys)
-            if differ >= 0.5:
-                score = max(score, 1.0 + differ)
-    return score
-
-
 def change_time(windows: pd.DataFrame, good: pd.DataFrame, k: int) -> float:
     """When the state changed between usable windows k - 1 and k: from a window that straddles
     the change, whose mean level mixes the two stretches' levels L1, L2 in proportion to the
-    time spent in each (L = f L1 + (1 - f) L2: t = start + f x window); else the start of the
-    window k."""
+    time spent in each (L = f L1 + (1 - f) L2: t = start + f x window; a window wholly between
+    the two, left out as out of the model's domain, straddles it: its f is clipped to [0, 1],
+    a change in its first or last 2 % of the window being at its start or end); else (the two
+    levels too close to tell) the middle of the time between the two windows, or the start of
+    window k when they touch."""
     before = good["level_mean_ohm"].iloc[max(0, k - 3) : k].to_numpy(float)
     after = good["level_mean_ohm"].iloc[k : k + 3].to_numpy(float)
-    fallback = float(good["start_s"].iloc[k])
+    end_before, start_after = float(good["end_s"].iloc[k - 1]), float(good["start_s"].iloc[k])
+    fallback = 0.5 * (end_before + start_after) if start_after > end_before else start_after
     l1, l2 = float(np.median(before)), float(np.median(after))
     spread = max(np.ptp(before), np.ptp(after), 1e-12)
     if abs(l1 - l2) < 10.0 * spread:
@@ -329,7 +394,11 @@ def change_time(windows: pd.DataFrame, good: pd.DataFrame, k: int) -> float:
     best, best_t = 0.5, fallback
     for _, w in near.iterrows():
         f = (float(w["level_mean_ohm"]) - l2) / (l1 - l2)
-        if 0.02 < f < 0.98 and abs(f - 0.5) <= best:
+        if w["start_s"] >= end_before - 1e-9 and w["end_s"] <= start_after + 1e-9:
+            f = min(1.0, max(0.0, f))
+        elif not 0.02 < f < 0.98:
+            continue
+        if abs(f - 0.5) <= best:
             best, best_t = abs(f - 0.5), float(w["start_s"]) + f * float(w["end_s"] - w["start_s"])
     return best_t
 
@@ -341,26 +410,16 @@ def stretches_and_changes(
     load_threshold: float = LOAD_THRESHOLD,
     bias_ratio: dict | None = None,
 ) -> tuple[list[dict], list[dict], list[dict]]:
-    """(stretches, changes, alarms) of a window table (module docstring). A change point
-    whose two sides differ neither in F_r by ``load_threshold`` nor in a class output (a
-    drift, a state whose windows scatter more than the others') is merged away, the least
-    material first. ``bias_ratio``: as :func:`combine_stretch`'s."""
+    """(stretches, changes, alarms) of a window table (module docstring): every change point
+    is a change (at ``false_alarm_per_hour``), described by its alarms, or by its F_r and
+    epsilon when it raises none (a change below ``load_threshold`` within one regime).
+    ``bias_ratio``: as :func:`combine_stretch`'s."""
     good = usable(windows)
     if good.empty:
         return [], [], []
     cps = change_points(good, hop_s, false_alarm_per_hour)
     edges = [0] + [k for k, _ in cps] + [len(good)]
     prob = {k: p for k, p in cps}
-    while True:
-        parts = [good.iloc[a:b] for a, b in zip(edges[:-1], edges[1:], strict=True)]
-        combined = [combine_stretch(p) for p in parts]
-        scores = [
-            _material(x, y, load_threshold)
-            for x, y in zip(combined[:-1], combined[1:], strict=True)
-        ]
-        if not scores or min(scores) >= 1.0:
-            break
-        del edges[1 + int(np.argmin(scores))]
     times = [change_time(windows, good, k) for k in edges[1:-1]]
     bounds = [float(good["start_s"].iloc[0]), *times, float(good["end_s"].iloc[-1])]
     stretches = []
@@ -377,9 +436,23 @@ def stretches_and_changes(
     for k, t, before, after in zip(edges[1:-1], times, stretches[:-1], stretches[1:], strict=True):
         p = prob.get(k, 1.0)
         found = alarms(before, after, t, p, load_threshold)
-        changes.append({"time_s": t, "what": "; ".join(a["what"] for a in found), "probability": p})
+        what = "; ".join(a["what"] for a in found) or _described(before, after)
+        changes.append({"time_s": t, "what": what, "probability": p})
         alarm_list.extend(found)
     return stretches, changes, alarm_list
+
+
+def _described(before: dict, after: dict) -> str:
+    """What changed between two stretches that raise no alarm: F_r and epsilon."""
+    parts = []
+    if "radial_load_n" in before:
+        rel = after["radial_load_n"] / before["radial_load_n"] - 1.0
+        parts.append(
+            f"load {before['radial_load_n']:.0f} -> {after['radial_load_n']:.0f} N ({rel:+.1%})"
+        )
+    if "epsilon" in before:
+        parts.append(f"epsilon {before['epsilon']:.3f} -> {after['epsilon']:.3f}")
+    return ", ".join(parts) + " (below the alarm thresholds)"
 
 
 def alarms(before: dict, after: dict, time_s: float, p_change: float, load_threshold: float):
