@@ -154,34 +154,42 @@ def effective_fraction(x: np.ndarray) -> float:
     return float(min(1.0, max(1.0 / n, 1.0 / (1.0 + 2.0 * acc))))
 
 
-def _local_variance(z: np.ndarray, edges: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """(variance, residual) per window and series: the scatter about the current state's level,
-    within each segment of ``edges``. The residuals are about a running median of 2
-    :data:`MIN_SEGMENT` + 1 windows (which follows the majority side of a step, so that a change
-    does not read as scatter; the first and last windows of a segment take the median of its
-    first or last 2 :data:`MIN_SEGMENT` + 1), squared and averaged over 2
-    :data:`SCATTER_HALF_WIDTH` + 1 windows within the segment, over
-    :data:`LOCAL_PRECISION_FACTOR`; at least :data:`LOCAL_FLOOR` of the series' median local
-    variance over the record (a series clipped at zero, such as a harmonic below the noise,
-    can sit still for many windows) and at least :data:`MIN_VARIANCE`."""
+def _scatter(seg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(mean square, residual) of one segment's windows (:func:`_local_variance`)."""
     from scipy.ndimage import median_filter
 
-    h = MIN_SEGMENT
-    r = np.empty_like(z)
-    var = np.empty_like(z)
+    h, n = MIN_SEGMENT, seg.shape[0]
+    m = median_filter(seg, size=(2 * h + 1, 1), mode="nearest")
+    m[:h] = np.median(seg[: 2 * h + 1], axis=0)
+    m[-h:] = np.median(seg[-(2 * h + 1) :], axis=0)
+    r = seg - m
+    cum = np.vstack([np.zeros(seg.shape[1]), np.cumsum(r**2, axis=0)])
+    # the neighbourhood is shifted, not cut, at the segment's ends: as many residuals
+    # everywhere (fewer would overstate the precision, 1 / v being convex)
+    width = min(2 * SCATTER_HALF_WIDTH + 1, n)
+    lo = np.clip(np.arange(n) - SCATTER_HALF_WIDTH, 0, n - width)
+    return (cum[lo + width] - cum[lo]) / width, r
+
+
+def _local_variance(z: np.ndarray, edges: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(variance, residual) per window and series: the scatter about the current state's level.
+    The residuals are about a running median of 2 :data:`MIN_SEGMENT` + 1 windows (which
+    follows the majority side of a step, so that a change does not read as scatter; the first
+    and last windows take the median of the first or last 2 :data:`MIN_SEGMENT` + 1), squared
+    and averaged over the 2 :data:`SCATTER_HALF_WIDTH` + 1 windows around, over
+    :data:`LOCAL_PRECISION_FACTOR`; within each segment of ``edges`` (one that holds fewer
+    windows takes the larger of its own and the record's: a few windows' own scatter is a
+    noisy and, 1 / v being convex, overstated precision); at least :data:`LOCAL_FLOOR` of the
+    series' median local variance over the record (a series clipped at zero, such as a
+    harmonic below the noise, can sit still for many windows) and at least
+    :data:`MIN_VARIANCE`."""
+    whole, r = _scatter(z)
+    var = whole.copy()
     for a, b in zip(edges[:-1], edges[1:], strict=True):
-        seg = z[a:b]
-        m = median_filter(seg, size=(2 * h + 1, 1), mode="nearest")
-        m[:h] = np.median(seg[: 2 * h + 1], axis=0)
-        m[-h:] = np.median(seg[-(2 * h + 1) :], axis=0)
-        r[a:b] = seg - m
-        cum = np.vstack([np.zeros(z.shape[1]), np.cumsum(r[a:b] ** 2, axis=0)])
-        # the neighbourhood is shifted, not cut, at the segment's ends: as many residuals
-        # everywhere (fewer would overstate the precision, 1 / v being convex)
-        width = min(2 * SCATTER_HALF_WIDTH + 1, b - a)
-        lo = np.clip(np.arange(b - a) - SCATTER_HALF_WIDTH, 0, b - a - width)
-        hi = lo + width
-        var[a:b] = (cum[hi] - cum[lo]) / (hi - lo)[:, None]
+        if b - a < z.shape[0]:
+            var[a:b], r[a:b] = _scatter(z[a:b])
+            if b - a < 2 * SCATTER_HALF_WIDTH + 1:
+                var[a:b] = np.maximum(var[a:b], whole[a:b])
     var /= LOCAL_PRECISION_FACTOR
     floor = np.maximum(LOCAL_FLOOR * np.median(var, axis=0), MIN_VARIANCE)
     return np.maximum(var, floor), r
