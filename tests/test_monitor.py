@@ -27,9 +27,11 @@ from signatelec.engines.simulate import simulate
 from signatelec.estimation.evidence import (
     Z90,
     change_points,
+    change_time,
     combine_target,
     effective_fraction,
     stretches_and_changes,
+    usable,
 )
 from signatelec.estimation.models import LoadStateEstimator
 from signatelec.estimation.monitor import MonitorSettings, monitor_trace
@@ -211,6 +213,31 @@ def test_detector_keeps_its_rate_when_the_scatter_changes():
         k = int(edges[len(edges) // 2])
         x[k:, 0] += 6e-3
         assert [c for c, _ in change_points(_windows(x), hop, 0.1)] == [k]
+
+
+@pytest.mark.parametrize("fraction", [0.005, 0.3, 0.995])
+def test_change_timed_by_the_straddling_window(fraction):
+    """A window that straddles a level step from L1 to L2, a fraction f of it in the first
+    state, has the mean level f L1 + (1 - f) L2 (out of the model's domain: no estimate); the
+    change is timed within 1 % of a window wherever in the window it falls (a change in its
+    first or last 2 % was timed at the next window's start, 0.2 s late)."""
+    l1, l2, win = 3.0e-3, 2.7e-3, 0.2
+    start = np.arange(12) * win
+    level = np.where(start < 6 * win, l1, l2)
+    level[6] = fraction * l1 + (1.0 - fraction) * l2
+    windows = pd.DataFrame(
+        {
+            "start_s": start,
+            "end_s": start + win,
+            "level_mean_ohm": level * (1.0 + 1e-5 * np.random.default_rng(7).standard_normal(12)),
+            "radial_load_n": 5000.0,
+            "status": ["ok"] * 6 + ["out of domain"] + ["ok"] * 5,
+        }
+    )
+    good = usable(windows)
+    k = int(np.flatnonzero(good["start_s"] > 6 * win)[0])  # the first window after the step
+    truth = 6 * win + fraction * win
+    assert change_time(windows, good, k) == pytest.approx(truth, abs=0.01 * win)
 
 
 # --- monitoring records -------------------------------------------------------------------------
