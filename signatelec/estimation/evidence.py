@@ -59,6 +59,7 @@ import math
 
 import numpy as np
 import pandas as pd
+from numba import njit
 from scipy import stats
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
@@ -213,21 +214,51 @@ def _precisions(z: np.ndarray, edges: list[int]) -> np.ndarray:
     return s[:, :, None] * inv[None] * s[:, None, :]
 
 
-def _best_split(cum_p, cum_px, a: int, b: int) -> tuple[int, float]:
-    """(k, T_k) of the largest GLR statistic over splits of [a, b): the precision-weighted
-    means of the two sides, T_k = (m_L - m_R)' (A^-1 + B^-1)^-1 (m_L - m_R), A and B the sums
-    of the sides' precisions (chi^2 with d degrees of freedom under no change)."""
-    ks = np.arange(a + MIN_SEGMENT, b - MIN_SEGMENT + 1)
-    if ks.size == 0:
-        return -1, 0.0
-    inv_a = np.linalg.inv(cum_p[ks] - cum_p[a])
-    inv_b = np.linalg.inv(cum_p[b] - cum_p[ks])
-    m_l = np.einsum("kij,kj->ki", inv_a, cum_px[ks] - cum_px[a])
-    m_r = np.einsum("kij,kj->ki", inv_b, cum_px[b] - cum_px[ks])
-    delta = m_l - m_r
-    t = np.einsum("ki,ki->k", delta, np.linalg.solve(inv_a + inv_b, delta[:, :, None])[:, :, 0])
-    i = int(np.argmax(t))
-    return int(ks[i]), float(t[i])
+@njit(cache=True, error_model="numpy")
+def _quadratic(cum_p, cum_px, a: int, b: int, lo: np.ndarray) -> float:
+    """s' M^-1 s for M = cum_p[b] - cum_p[a] (symmetric positive definite, d x d) and
+    s = cum_px[b] - cum_px[a]: |y|^2 with L y = s, M = L L' (Cholesky; Golub & Van Loan 2013,
+    alg. 4.2.1), in the work array ``lo`` (d x (d + 1): L, and y in its last column);
+    -inf when M is not positive definite."""
+    d = cum_px.shape[1]
+    total = 0.0
+    for i in range(d):
+        for j in range(i + 1):
+            acc = cum_p[b, i, j] - cum_p[a, i, j]
+            for q in range(j):
+                acc -= lo[i, q] * lo[j, q]
+            if i == j:
+                if acc <= 0.0:
+                    return -math.inf
+                lo[i, i] = math.sqrt(acc)
+            else:
+                lo[i, j] = acc / lo[j, j]
+        acc = cum_px[b, i] - cum_px[a, i]
+        for q in range(i):
+            acc -= lo[i, q] * lo[q, d]
+        lo[i, d] = acc / lo[i, i]
+        total += lo[i, d] * lo[i, d]
+    return total
+
+
+@njit(cache=True, error_model="numpy")
+def _best_split(cum_p, cum_px, a: int, b: int, min_segment: int) -> tuple[int, float]:
+    """(k, T_k) of the largest GLR statistic over splits of [a, b) with at least
+    ``min_segment`` windows a side, (-1, 0) when there is none: T_k = (m_L - m_R)'
+    (A^-1 + B^-1)^-1 (m_L - m_R), m_L and m_R the precision-weighted means of the two sides and
+    A and B the sums of their precisions (chi^2 with d degrees of freedom under no change),
+    computed as the weighted residual sum of squares that the split removes,
+    s_L' A^-1 s_L + s_R' B^-1 s_R - s' (A + B)^-1 s (s_L, s_R the sides' precision-weighted
+    sums; the same number: both are twice the log-likelihood ratio of a change of mean at k)."""
+    d = cum_px.shape[1]
+    lo = np.zeros((d, d + 1))
+    whole = _quadratic(cum_p, cum_px, a, b, lo)
+    best_k, best_t = -1, 0.0
+    for k in range(a + min_segment, b - min_segment + 1):
+        t = _quadratic(cum_p, cum_px, a, k, lo) + _quadratic(cum_p, cum_px, k, b, lo) - whole
+        if best_k < 0 or t > best_t:
+            best_k, best_t = k, t
+    return best_k, best_t
 
 
 def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float = 1.0):
@@ -238,7 +269,7 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
     cum_px = np.vstack([np.zeros(d), np.cumsum(np.einsum("kij,kj->ki", p, z), axis=0)])
 
     def best(a, b):
-        k, t = _best_split(cum_p, cum_px, a, b)
+        k, t = _best_split(cum_p, cum_px, a, b, MIN_SEGMENT)
         return k, t / factor
 
     found, todo = [], [(0, n)]
