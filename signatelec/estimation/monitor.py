@@ -27,6 +27,7 @@ stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the outpu
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -140,14 +141,20 @@ def _screen(trace, omega, model: LoadStateModel, first: bool):
     return ripple.status, note if first else None
 
 
+@functools.cache
+def _thread_pools():
+    """The process's thread pools (threadpoolctl), found once: a search costs ~8 ms, per batch."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
 def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) -> None:
     """The model's estimates of a batch of windows, asked once, written into ``rows``."""
-    from threadpoolctl import threadpool_limits
-
     if not feats:
         return
     X = pd.DataFrame(feats)
-    with threadpool_limits(1):
+    with _thread_pools().limit(limits=1):
         pred = model.predict_frame(X)
     scores = np.ones(len(X))
     if model.domain is not None:
