@@ -493,7 +493,8 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
     rows, n = x.shape
     duration = n / fs
     tc = (np.arange(n) - 0.5 * (n - 1)) / fs  # time from the middle of the trace
-    f_exp = np.array([expected_ball_pass_hz(float(o), bearing) for o in omega])
+    speeds, at = np.unique(omega, return_inverse=True)  # a block's windows share one speed
+    f_exp = np.array([expected_ball_pass_hz(float(o), bearing) for o in speeds])[at]
     level0 = x.mean(axis=1)
     slope0 = np.zeros(rows)
     tcc = tc - tc.mean()

@@ -292,10 +292,10 @@ def harmonic_features(a: TraceAnalysis) -> dict[str, float]:
     for k in range(1, n_harmonics + 1):
         out[f"h{k}_frac"] = float(frac[k - 1])
     c1 = a.coefficients[0]
-    phase1 = np.angle(c1)
+    phase = np.angle(a.coefficients)
     for k in range(2, n_harmonics + 1):
         ck = a.coefficients[k - 1]
-        rel = float(np.angle(ck) - k * phase1) if abs(c1) > 0 and abs(ck) > 0 else 0.0
+        rel = float(phase[k - 1] - k * phase[0]) if abs(c1) > 0 and abs(ck) > 0 else 0.0
         out[f"h{k}_even_rel"] = float(amp[k - 1] * math.cos(rel) / s)
         out[f"h{k}_odd_rel"] = float(amp[k - 1] * math.sin(rel) / s)
     return out

@@ -261,20 +261,20 @@ class _Windows:
         of them under ``_features``, for the model)."""
         if not windows:
             return
+        x = np.stack([seg for _, seg, _ in windows])
         try:
-            analyses = analyse_windows(
-                np.stack([seg for _, seg, _ in windows]), fs, [om for _, _, om in windows]
-            )
+            analyses = analyse_windows(x, fs, [om for _, _, om in windows])
         except ValueError as exc:
             for row, _, _ in windows:
                 row["status"] = f"refused: {exc}"
             return
-        for (row, seg, omega), a in zip(windows, analyses, strict=True):
+        lows, highs = x.min(axis=1).tolist(), x.max(axis=1).tolist()
+        for (row, _, omega), a, low, high in zip(windows, analyses, lows, highs, strict=True):
             f = trace_features(None, analysis=a)
             row.update(
                 omega_rad_s=omega,
-                resistance_min_ohm=float(seg.min()),
-                resistance_max_ohm=float(seg.max()),
+                resistance_min_ohm=low,
+                resistance_max_ohm=high,
                 **{name: f[name] for name in KEPT_FEATURES},
             )
             if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
