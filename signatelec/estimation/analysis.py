@@ -35,7 +35,7 @@ from signatelec.estimation.harmonic_fit import (
     solve_normal,
     solve_rows,
 )
-from signatelec.measurement.ripple import PAD
+from signatelec.measurement.ripple import PAD, hann
 from signatelec.measurement.traces import N_HARMONICS, SEARCH_REL
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
@@ -156,12 +156,12 @@ def _find_ball_pass(
         for part in range(0, rows.size, _PAD_ROWS):
             take = rows[part : part + _PAD_ROWS]
             if take.size >= _PAD_MIN_ROWS:
-                np.multiply(x[take], _hann(n), out=padded[: take.size, :n])
+                np.multiply(x[take], hann(n), out=padded[: take.size, :n])
                 spectra = sfft.rfft(padded[: take.size], axis=1)
                 power[part : part + take.size] = np.abs(spectra[:, columns]) ** 2
                 continue
             for i, w in enumerate(take):
-                np.multiply(x[w], _hann(n), out=padded[0, :n])
+                np.multiply(x[w], hann(n), out=padded[0, :n])
                 power[part + i] = np.abs(sfft.rfft(padded[0])[columns]) ** 2
         total = np.zeros((rows.size, cand.size))
         at = 0
@@ -203,16 +203,8 @@ def _padded_buffer(rows: int, n: int, n_fft: int) -> np.ndarray:
 @functools.lru_cache(maxsize=4)
 def _periodic_hann(n: int) -> np.ndarray:
     """The periodic Hann window of ``n`` points (np.hanning(n + 1) less its last point), kept
-    as :func:`_hann` is (read-only)."""
+    as :func:`~signatelec.measurement.ripple.hann` is (read-only)."""
     window = np.hanning(n + 1)[:-1] if n > 1 else np.ones(1)
-    window.flags.writeable = False
-    return window
-
-
-@functools.lru_cache(maxsize=4)
-def _hann(n: int) -> np.ndarray:
-    """np.hanning(n), kept for the next block of windows of the same length (read-only)."""
-    window = np.hanning(n)
     window.flags.writeable = False
     return window
 
