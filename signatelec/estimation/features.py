@@ -378,7 +378,9 @@ def ripple_features(a: TraceAnalysis) -> dict[str, float]:
     raw = np.abs(a.coefficients)
     scale = np.divide(amp, raw, out=np.zeros_like(amp), where=raw > 0)
     c = a.coefficients * scale
-    w = np.real(_waveform_phasors(n_harmonics) @ c)
+    # contiguous: shape_stats then has one compiled version (each loaded from numba's cache
+    # costs some ms of a process's start)
+    w = np.ascontiguousarray(np.real(_waveform_phasors(n_harmonics) @ c))
     crest, skew, kurt, asym = shape_stats(w)
     # folded raw trace
     st = a.statistics
