@@ -250,6 +250,28 @@ def test_windows_analysed_together_equal_one_by_one(clean_signal):
             assert batch[name] == pytest.approx(value, rel=1e-9, abs=1e-300), name
 
 
+def test_analysis_does_not_depend_on_the_one_before(clean_signal):
+    """The ball-pass search pads each window with zeros in a buffer kept from one call to the
+    next: a window of 1998 samples (padded to 8000, as 2000 are) analysed after windows of 2000
+    gives the features it gets after a trace of another padded length (a fresh buffer), to the
+    last bit, in a batch of rows (one transform) and alone."""
+    from signatelec.estimation.analysis import analyse_windows
+
+    fs = 50000.0
+    r = clean_signal[fs] * (1.0 + 0.002 * np.random.default_rng(3).standard_normal(10000))
+    short = r[: 5 * 1998].reshape(5, 1998)
+
+    def features():
+        return [F.trace_features(None, analysis=a) for a in analyse_windows(short, fs, 500.0)]
+
+    analyse_windows(r[:3000].reshape(1, 3000), fs, 500.0)  # another padded length
+    fresh = features()
+    analyse_windows(r.reshape(5, 2000), fs, 500.0)  # 2000 samples written per row
+    assert features() == fresh
+    analyse_windows(r.reshape(5, 2000), fs, 500.0)
+    assert F.trace_features(short[0], fs, 500.0) == fresh[0]
+
+
 @pytest.mark.parametrize("derivative", [True, False])
 def test_harmonic_gram_matrix_in_closed_form(derivative):
     """The normal equations of the harmonic fit without its design: the Gram matrix from the

@@ -27,6 +27,7 @@ stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the outpu
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -148,14 +149,20 @@ def _screen(trace, omega, model: LoadStateModel, first: bool):
     return ripple.status, note if first else None
 
 
+@functools.cache
+def _thread_pools():
+    """The process's thread pools (threadpoolctl), found once: a search costs ~8 ms, per batch."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
 def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) -> None:
     """The model's estimates of a batch of windows, asked once, written into ``rows``."""
-    from threadpoolctl import threadpool_limits
-
     if not feats:
         return
     X = pd.DataFrame(feats)
-    with threadpool_limits(1):
+    with _thread_pools().limit(limits=1):
         pred = model.predict_frame(X)
     scores = np.ones(len(X))
     if model.domain is not None:
@@ -262,20 +269,20 @@ class _Windows:
         of them under ``_features``, for the model)."""
         if not windows:
             return
+        x = np.stack([seg for _, seg, _ in windows])
         try:
-            analyses = analyse_windows(
-                np.stack([seg for _, seg, _ in windows]), fs, [om for _, _, om in windows]
-            )
+            analyses = analyse_windows(x, fs, [om for _, _, om in windows])
         except ValueError as exc:
             for row, _, _ in windows:
                 row["status"] = f"refused: {exc}"
             return
-        for (row, seg, omega), a in zip(windows, analyses, strict=True):
+        lows, highs = x.min(axis=1).tolist(), x.max(axis=1).tolist()
+        for (row, _, omega), a, low, high in zip(windows, analyses, lows, highs, strict=True):
             f = trace_features(None, analysis=a)
             row.update(
                 omega_rad_s=omega,
-                resistance_min_ohm=float(seg.min()),
-                resistance_max_ohm=float(seg.max()),
+                resistance_min_ohm=low,
+                resistance_max_ohm=high,
                 **{name: f[name] for name in KEPT_FEATURES},
             )
             if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:

@@ -52,6 +52,7 @@ line is found.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -96,11 +97,20 @@ HARMONIC_ONLY_MAX_REL = 6e-4
 ELSEWHERE_MIN_REL = 3e-4
 
 
+@functools.lru_cache(maxsize=4)
+def hann(n: int) -> np.ndarray:
+    """np.hanning(n), kept for the next trace or block of the same length (read-only): ~0.3 ms
+    at 25000 points, on every screened block of a monitored trace."""
+    window = np.hanning(n)
+    window.flags.writeable = False
+    return window
+
+
 def padded_power(x: np.ndarray, fs: float, pad: int = PAD) -> tuple[np.ndarray, float]:
     """|rfft(x hann, n_fft)|^2 with n_fft >= pad n, and its bin width (Hz)."""
     n = x.size
     n_fft = sfft.next_fast_len(pad * n, real=True)
-    return np.abs(sfft.rfft(x * np.hanning(n), n_fft)) ** 2, fs / n_fft
+    return np.abs(sfft.rfft(x * hann(n), n_fft)) ** 2, fs / n_fft
 
 
 def _detrended(r: np.ndarray) -> np.ndarray:
@@ -124,7 +134,7 @@ def _floor(power: np.ndarray, df: float, half_width_hz: float, pad: int = PAD) -
     inner = (centres >= half) & (centres + half + 1 <= n)
     if inner.any():
         at = centres[inner, None] - half + np.arange(0, 2 * half + 1, pad)
-        med[inner] = np.median(power[at], axis=1)
+        med[inner] = np.median(power[at], axis=1, overwrite_input=True)  # a gathered copy
     for i in np.flatnonzero(~inner):
         c = centres[i]
         med[i] = np.median(power[max(0, c - half) : c + half + 1 : pad])

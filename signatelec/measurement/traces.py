@@ -263,31 +263,35 @@ def prepare_trace(
             f"{where}: time does not increase at row {i + 1} (t = {t[i]:.9g} s, then "
             f"{t[i + 1]:.9g} s); sort the trace or remove repeated times"
         )
-    step = float(np.median(dt))
+    # in place: the order of dt is not read again (its extremes are; a gap's row from t)
+    step = float(np.median(dt, overwrite_input=True))
     fs = 1.0 / step
     f_bp = expected_ball_pass_hz(omega_rad_s)
     max_gap_s = MAX_GAP_BALL_PASSES / f_bp
 
     is_open = np.isinf(r) | (r <= 0.0) | (r > OPEN_CIRCUIT_OHM)
     is_nan = np.isnan(r)
-    if is_open.mean() > MAX_OPEN_FRACTION:
+    # shares as counts over the size: np.mean's numbers, without its float sum
+    open_share = np.count_nonzero(is_open) / r.size
+    if open_share > MAX_OPEN_FRACTION:
         raise TraceError(
             f"{where}: open circuit (resistance infinite, <= 0 or above {OPEN_CIRCUIT_OHM:g} ohm) "
-            f"in {is_open.mean():.1%} of the "
+            f"in {open_share:.1%} of the "
             f"samples (at most {MAX_OPEN_FRACTION:.0%} can be filled in); no ball touched both "
             "rings, or the meter lost contact"
         )
     bad = is_open | is_nan
-    if bad.mean() > MAX_BAD_FRACTION:
+    bad_share = np.count_nonzero(bad) / r.size
+    if bad_share > MAX_BAD_FRACTION:
         raise TraceError(
-            f"{where}: {bad.mean():.1%} of the resistance samples are missing or not finite "
+            f"{where}: {bad_share:.1%} of the resistance samples are missing or not finite "
             f"(at most {MAX_BAD_FRACTION:.0%} can be filled in)"
         )
     if bad.all():
         raise TraceError(f"{where}: no finite resistance sample")
     # cut missing ends, then check the inner gaps
-    good = np.flatnonzero(~bad)
-    lo, hi = int(good[0]), int(good[-1]) + 1
+    good = ~bad
+    lo, hi = int(np.argmax(good)), r.size - int(np.argmax(good[::-1]))
     cut = lo > 0 or hi < r.size
     if cut:
         repairs.append(f"cut {lo + r.size - hi} missing samples at the ends")
@@ -314,17 +318,17 @@ def prepare_trace(
     # median of a long block's steps is a good part of a monitored window's cost)
     if cut:
         dt = np.diff(t)
-        step = float(np.median(dt))
+        step = float(np.median(dt, overwrite_input=True))
         fs = 1.0 / step
-    big = np.flatnonzero(dt > max_gap_s)
-    if big.size:
-        i = int(big[0])
+    if dt.size and dt.max() > max_gap_s:
+        i = int(np.flatnonzero(np.diff(t) > max_gap_s)[0])
         raise TraceError(
             f"{where}: no sample between t = {t[i]:.6g} s and {t[i + 1]:.6g} s: a gap longer "
             f"than {MAX_GAP_BALL_PASSES:g} of a ball pass ({max_gap_s * 1e3:.3g} ms); cut the "
             "trace there"
         )
-    jitter = float(np.max(np.abs(dt - step)) / step)
+    # max |dt - step| from the extremes (a rounded difference is monotonic: the same number)
+    jitter = float(max(dt.max() - step, step - dt.min()) / step)
     if jitter > JITTER_TOLERANCE:
         n = int(math.floor((t[-1] - t[0]) * fs + 1e-9)) + 1
         grid = t[0] + np.arange(n) * step
