@@ -18,7 +18,17 @@ by state (the stretches of one state share its model error), the stretch probabi
 - ``mean``: the mean log-probability times one factor fitted on them (evidence that does not
   grow with the stretch: the model's error is the state's, shared by its windows).
 
-The argmax, and so the regime, is the same for all three.
+The argmax, and so the regime, is the same for all three; the factors are also fitted per band
+of the estimated epsilon's distance from 0.5 (:data:`BANDS`). ``--model`` asks another model
+file (the regime and F_r of the calibration stretches are printed for it too: how the default
+model's training runs were chosen).
+
+Found (200 splits): with the model trained on the 1200 fast and 1200 uniform paper-fidelity
+runs, whose wrong regimes the summed evidence reported at 0.90 on average, the scaled mean
+lowered the log-loss from 0.55 to 0.13 and the Brier score from 0.090 to 0.066; with the default
+model (600 runs placed near the boundaries too) only one state is misread, the summed evidence
+has the lowest Brier score (0.042 against 0.050) and the factors fitted without that state do
+not hold for it: the stretch keeps the summed evidence.
 """
 
 from __future__ import annotations
@@ -198,7 +208,7 @@ def evaluate(table: pd.DataFrame, splits: int = 200, seed: int = 0) -> pd.DataFr
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--bank", default="/tmp/monitor-bank/calibration")
-    p.add_argument("--out", default="/tmp/mon12-regime")
+    p.add_argument("--out", default="/tmp/monitor-regime")
     p.add_argument("--model", default=None, help="a model file (default: the default model)")
     args = p.parse_args(argv)
     out = Path(args.out)

@@ -37,11 +37,7 @@ over-covered in the zero and preload regimes and under-covered in the clearance 
 clearance of a zero or preloaded bearing is known more closely, relative to its windows'
 intervals, than a clearance is. The two parts add in quadrature: half-width
 z90 (b^2 w^2 + s^2 / n_eff)^(1/2). A class output combines the
-windows' log-probabilities, each weighted n_eff / n (the same correction for correlation),
-when change points are weighed; the regime a stretch reports keeps that most probable class
-with probabilities from the windows' mean log-probability scaled by :data:`REGIME_EVIDENCE`
-(calibrated on the calibration records: the model's error is shared by a state's windows,
-so more windows do not make a wrong regime less likely).
+windows' log-probabilities, each weighted n_eff / n (the same correction for correlation).
 
 **Alarms** (:func:`alarms`): at each change, a load change beyond ``load_threshold`` (with the
 probability that the stretches' F_r differ by more, from their scatter parts), a change of
@@ -65,19 +61,10 @@ Z90 = stats.norm.ppf(0.95)
 #: acceptance records', default model, 0.2 s windows); ``"any"``: over all of them, for a
 #: stretch without a regime.
 BIAS_RATIO = {
-    "radial_load_n": {"any": 0.463, "clearance": 0.901, "preload": 0.551, "zero": 0.185},
-    "epsilon": {"any": 0.504, "clearance": 0.926, "preload": 0.605, "zero": 0.180},
-    "clearance_m": {"any": 0.462, "clearance": 0.816, "preload": 0.518, "zero": 0.116},
+    "radial_load_n": {"any": 0.426, "clearance": 0.670, "preload": 0.423, "zero": 0.196},
+    "epsilon": {"any": 0.478, "clearance": 1.002, "preload": 0.560, "zero": 0.078},
+    "clearance_m": {"any": 0.527, "clearance": 0.882, "preload": 0.568, "zero": 0.153},
 }
-#: A stretch's regime evidence: its windows' mean regime log-probability times this factor,
-#: not their sum. The windows of one state share the model's error (docs/monitor/model_error.md),
-#: so their agreement grows with the stretch while the chance that they are all wrong does not:
-#: summed (weighted n_eff / n), the calibration stretches' wrong regimes were reported at 0.90
-#: on average. The factor maximises the likelihood of the true regime over the stretches of the
-#: calibration records (Platt 1999 / Guo et al. 2017 temperature scaling, on the mean);
-#: cross-validated by state it gives the lowest log-loss of the summed, the temperature-scaled
-#: sum and the scaled mean (pipelines/monitor_regime_probability.py).
-REGIME_EVIDENCE = 2.52
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"
 #: Fewest windows on either side of a change.
@@ -251,41 +238,30 @@ def combine_target(values, low, high, log: bool, bias_ratio: float) -> dict:
     return {**out, "se_noise": se_noise, "n_eff": n_eff, "window_sd": window_sd}
 
 
-def combine_classes(
-    windows: pd.DataFrame, name: str, evidence: float | None = None
-) -> dict[str, float] | None:
-    """Class probabilities of a stretch: windows' log-probabilities summed, weighted n_eff / n;
-    with ``evidence``, their mean times ``evidence`` (the same most probable class)."""
+def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None:
+    """Class probabilities of a stretch: windows' log-probabilities summed, weighted n_eff / n."""
     pc = class_columns(windows, name)
     if not pc:
         return None
     logp = np.log(np.clip(windows[pc].to_numpy(float), 1e-12, 1.0))
-    if evidence is not None:
-        z = evidence * logp.mean(axis=0)
-    else:
-        top = int(np.argmax(logp.sum(axis=0)))
-        others = np.delete(logp, top, axis=1)
-        margin = logp[:, top] - (others.max(axis=1) if others.size else 0.0)
-        weight = effective_fraction(margin) if len(logp) > 1 else 1.0
-        z = weight * logp.sum(axis=0)
+    top = int(np.argmax(logp.sum(axis=0)))
+    others = np.delete(logp, top, axis=1)
+    margin = logp[:, top] - (others.max(axis=1) if others.size else 0.0)
+    weight = effective_fraction(margin) if len(logp) > 1 else 1.0
+    z = weight * logp.sum(axis=0)
     z -= z.max()
     p = np.exp(z) / np.exp(z).sum()
     return {c.removeprefix(f"{name}_probability_"): float(q) for c, q in zip(pc, p, strict=True)}
 
 
-def combine_stretch(
-    windows: pd.DataFrame, bias_ratio: dict | None = None, calibrated: bool = True
-) -> dict:
+def combine_stretch(windows: pd.DataFrame, bias_ratio: dict | None = None) -> dict:
     """One stretch's estimate from its usable windows (``bias_ratio``: per target, per
-    estimated regime and :data:`ANY_REGIME`; default :data:`BIAS_RATIO`). ``calibrated``: the
-    regime's probabilities from :data:`REGIME_EVIDENCE` (else the windows' evidence summed,
-    which change detection weighs)."""
+    estimated regime and :data:`ANY_REGIME`; default :data:`BIAS_RATIO`)."""
     ratios = BIAS_RATIO if bias_ratio is None else bias_ratio
     out: dict = {"n_windows": int(len(windows))}
     classes = {}
     for name in CLASS_OUTPUTS:
-        evidence = REGIME_EVIDENCE if calibrated and name == "regime" else None
-        probs = combine_classes(windows, name, evidence)
+        probs = combine_classes(windows, name)
         if probs:
             best = max(probs, key=probs.get)
             classes[name] = best
@@ -377,7 +353,7 @@ def stretches_and_changes(
     prob = {k: p for k, p in cps}
     while True:
         parts = [good.iloc[a:b] for a, b in zip(edges[:-1], edges[1:], strict=True)]
-        combined = [combine_stretch(p, calibrated=False) for p in parts]
+        combined = [combine_stretch(p) for p in parts]
         scores = [
             _material(x, y, load_threshold)
             for x, y in zip(combined[:-1], combined[1:], strict=True)
