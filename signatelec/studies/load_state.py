@@ -77,9 +77,11 @@ TEST_RUNS_PER_REGIME = 30
 #: First spawn-key words of the measurement draws: training windows (+ their length's index),
 #: acceptance windows, each scan's windows (+ the value's index).
 TRAIN_KEY, ACCEPT_KEY, SCAN_KEYS = 100, 1, {"noise": 200, "length": 300}
-#: The default model's paper-fidelity runs (``datasets/load_state_paper.toml``): the windows
-#: measured of each (one per length, each with its own :func:`train_draw`; spawn keys from
-#: :data:`PAPER_KEY`), and the offset of their run ids (apart from the training runs').
+#: The default model's paper-fidelity runs (``datasets/load_state_paper.toml``, then
+#: ``datasets/load_state_paper_boundary.toml``): the windows measured of each (one per length,
+#: each with its own :func:`train_draw`; spawn keys from :data:`PAPER_KEY`), and the offset of
+#: the run ids of the first dataset (apart from the training runs'); the k-th dataset's run ids
+#: start at k + 1 times it.
 PAPER_WINDOWS = (0.05, 0.2)
 PAPER_KEY = 150
 PAPER_RUN_ID_OFFSET = 100000
@@ -253,25 +255,30 @@ def feature_tables(
     return tables
 
 
-def paper_table(runs: pd.DataFrame) -> pd.DataFrame:
+def paper_table(runs: pd.DataFrame, run_id_offset: int = PAPER_RUN_ID_OFFSET) -> pd.DataFrame:
     """The paper-fidelity rows of the default model from their runs (:data:`PAPER_WINDOWS`),
     as :func:`~signatelec.estimation.training.shipped_rows` keeps them."""
-    runs = runs.assign(trace_id=runs["trace_id"] + PAPER_RUN_ID_OFFSET)
+    runs = runs.assign(trace_id=runs["trace_id"] + run_id_offset)
     rows = []
     for i, length in enumerate(PAPER_WINDOWS):
         rows += measured_windows(runs, length, 1, train_draw, key=PAPER_KEY + i)
     return shipped_rows(pd.DataFrame(rows))
 
 
-def ship_paper_table(out: Path, spec_path: Path, ship_to: Path, log: Log = _quiet) -> Path:
-    """Generate (or resume) the paper-fidelity runs of ``spec_path`` into ``out/runs_paper``
-    and write their :func:`paper_table` to ``ship_to``."""
-    spec = spec_from_dict(tomllib.loads(Path(spec_path).read_text()), str(spec_path))
-    d = Path(out) / "runs_paper"
-    t0 = time.perf_counter()
-    summary = generate_dataset(spec, d, workers=0, progress=log is not _quiet)
-    log(f"generate {spec.name}: {summary.n_traces} traces, {time.perf_counter() - t0:.0f} s")
-    table = paper_table(load_runs(d, log))
+def ship_paper_table(out: Path, spec_paths: list[Path], ship_to: Path, log: Log = _quiet) -> Path:
+    """Generate (or resume) the paper-fidelity runs of each of ``spec_paths`` into
+    ``out/runs_<dataset name>`` (``out/runs_paper`` for the first) and write their
+    :func:`paper_table` rows, one after the other, to ``ship_to``."""
+    parts = []
+    for k, spec_path in enumerate(spec_paths):
+        spec = spec_from_dict(tomllib.loads(Path(spec_path).read_text()), str(spec_path))
+        d = Path(out) / ("runs_paper" if k == 0 else f"runs_{spec.name}")
+        t0 = time.perf_counter()
+        summary = generate_dataset(spec, d, workers=0, progress=log is not _quiet)
+        log(f"generate {spec.name}: {summary.n_traces} traces, {time.perf_counter() - t0:.0f} s")
+        parts.append(paper_table(load_runs(d, log), (k + 1) * PAPER_RUN_ID_OFFSET))
+    table = pd.concat(parts, ignore_index=True)
+    table["regime"] = table["regime"].astype(str).astype("category")
     Path(ship_to).parent.mkdir(parents=True, exist_ok=True)
     write_bytes_atomic(ship_to, table.to_parquet(index=False, compression="zstd"))
     log(f"wrote {ship_to} ({Path(ship_to).stat().st_size / 1e3:.0f} kB, {len(table)} rows)")
