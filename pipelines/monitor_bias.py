@@ -1,11 +1,11 @@
-"""Where the monitor's per-state bias comes from, on the calibration bank of the monitoring study.
+"""Where the monitor's per-state bias comes from, on the design bank of the monitoring study.
 
 Usage::
 
     python pipelines/monitor_bias.py [--bank DIR] [--out DIR] [--draws N]
 
-The calibration states of ``signatelec study monitor`` (paper fidelity: velocity Verlet,
-dt = 1e-7 s; ``--bank``, default ``/tmp/monitor-bank/calibration``, read as cached or run) are
+The design states of ``signatelec study monitor`` (paper fidelity: velocity Verlet,
+dt = 1e-7 s; ``--bank``, default ``/tmp/monitor-bank/design``, read as cached or run) are
 run again at the ``fast`` preset the default model trains on (cached in ``--out``). From each
 state's steady trace, at each fidelity, ``--draws`` windows of the monitor's 0.2 s at random
 offsets of the whole-pass tiling (as the study's records are assembled) with 0.2 % white noise,
@@ -189,17 +189,17 @@ def models(log) -> dict:
 
 
 def main(argv=None):
-    from signatelec.studies.monitor_records import CALIBRATION_SEED, CALIBRATION_STATES, dem_bank
+    from signatelec.studies.monitor_records import CALIBRATION_STATES, DESIGN_SEED, dem_bank
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--bank", default="/tmp/monitor-bank/calibration")
+    p.add_argument("--bank", default="/tmp/monitor-bank/design")
     p.add_argument("--out", default="out/monitor_bias")
     p.add_argument("--report", default="docs/monitor/model_error.md")
     p.add_argument("--draws", type=int, default=12)
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    bank = dem_bank(args.bank, print, CALIBRATION_STATES, CALIBRATION_SEED)
+    bank = dem_bank(args.bank, print, CALIBRATION_STATES, DESIGN_SEED)
     cache = out / f"bias_features-{args.draws}.parquet"
     if cache.is_file():
         feats = pd.read_parquet(cache)
@@ -252,7 +252,7 @@ def main(argv=None):
             "## Method",
             "",
             "Written by `python pipelines/monitor_bias.py` (its docstring says how). The "
-            f"{len(bank)} calibration states of `signatelec study monitor` (not its acceptance "
+            f"{len(bank)} design states of `signatelec study monitor` (not its acceptance "
             f"states), {args.draws} windows of 0.2 s per state and fidelity at random offsets "
             "of the whole-pass tiling, with 0.2 % white noise (`noisy`) and without (`clean`); "
             "a state's windows combined as a stretch's are (mean of log F_r, epsilon and "
@@ -300,7 +300,7 @@ def header(table: pd.DataFrame, n_states: int, draws: int) -> list[str]:
     return [
         "# The monitor's per-state error: where it comes from",
         "",
-        f"On the {n_states} calibration states of the monitoring study, a stretch's estimate "
+        f"On the {n_states} design states of the monitoring study, a stretch's estimate "
         f"(its windows combined) of the first default model ({old}): "
         f"{row(old, 'paper', 'noisy')}.",
         "",

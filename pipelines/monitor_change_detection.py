@@ -1,14 +1,14 @@
-"""The monitor's change detection on the calibration bank of the monitoring study.
+"""The monitor's change detection on the design bank of the monitoring study.
 
 Usage::
 
     python pipelines/monitor_change_detection.py [--bank DIR] [--out DIR] [--minutes M]
 
-The calibration states of ``signatelec study monitor`` (``--bank``, default
-``/tmp/monitor-bank/calibration``, read as cached or run; not the acceptance records) are
+The design states of ``signatelec study monitor`` (``--bank``, default
+``/tmp/monitor-bank/design``, read as cached or run; not the acceptance records) are
 monitored in two ways, as ``signatelec monitor`` does (0.2 s windows, the default model):
 
-1. *records*: the study's calibration records (``CALIBRATION_SEED + 1``: 6 stretches of 2-10 s,
+1. *records*: the study's design records (``DESIGN_SEED + 1``: 6 stretches of 2-10 s,
    consecutive states a load step of 10-50 % or a regime apart); each true change should be
    found within one window, and nothing else;
 2. *constant records*: each state tiled for ``--minutes`` (default 10) with fresh 0.2 % noise;
@@ -46,7 +46,7 @@ def window_tables(bank, out: Path, minutes: float):
     from signatelec.estimation.persistence import default_model
     from signatelec.studies.monitor import N_CALIBRATION_RECORDS, N_STRETCHES
     from signatelec.studies.monitor_records import (
-        CALIBRATION_SEED,
+        DESIGN_SEED,
         OMEGA_RAD_S,
         SAMPLE_RATE_HZ,
         assemble_record,
@@ -66,11 +66,11 @@ def window_tables(bank, out: Path, minutes: float):
 
     records, constant = [], []
     with threadpool_limits(1):
-        rng = np.random.default_rng(CALIBRATION_SEED + 1)  # as the study's calibration records
+        rng = np.random.default_rng(DESIGN_SEED + 1)  # as the study's design records
         for _ in range(N_CALIBRATION_RECORDS):
             noisy, truth = assemble_record(bank, rng, N_STRETCHES, None)
             records.append((truth, monitored(noisy)))
-        rng = np.random.default_rng(CALIBRATION_SEED + 7)
+        rng = np.random.default_rng(DESIGN_SEED + 7)
         for state in bank.state:
             one = bank[bank.state == state].reset_index(drop=True)
             noisy, truth = assemble_record(one, rng, 0, minutes * 60.0)
@@ -205,10 +205,10 @@ def report(changes, rates, series, hours, white, cpu_s) -> str:
     )
     return "\n".join(
         [
-            "# Monitoring: change detection on the calibration bank",
+            "# Monitoring: change detection on the design bank",
             "",
-            "Written by `pipelines/monitor_change_detection.py` on the calibration states of "
-            "`signatelec study monitor` (drawn from `CALIBRATION_SEED`, not the acceptance "
+            "Written by `pipelines/monitor_change_detection.py` on the design states of "
+            "`signatelec study monitor` (drawn from `DESIGN_SEED`, not the acceptance "
             "records); windows of 0.2 s, the default model, false-alarm rate 0.1 per hour. "
             "The detector (`change_points` of `signatelec/estimation/evidence.py`) was chosen "
             "on this evidence before the acceptance records were monitored with it; one rule "
@@ -218,7 +218,7 @@ def report(changes, rates, series, hours, white, cpu_s) -> str:
             "the record's (a 3-window segment's own had overstated its precision). The "
             "figures below are with it.",
             "",
-            f"**Calibration records** ({changes.record.nunique()} records of 6 stretches): "
+            f"**Design records** ({changes.record.nunique()} records of 6 stretches): "
             f"{(err <= 0.2).sum()} of {len(true)} true changes found within one window "
             f"(median error {1e3 * err.median():.1f} ms, max {1e3 * err.max():.0f} ms); "
             f"{len(spurious)} spurious changes.",
@@ -278,18 +278,18 @@ def report(changes, rates, series, hours, white, cpu_s) -> str:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--bank", default="/tmp/monitor-bank/calibration")
+    parser.add_argument("--bank", default="/tmp/monitor-bank/design")
     parser.add_argument("--out", default="out/monitor_change_detection")
     parser.add_argument("--report", default="docs/monitor/change_detection.md")
     parser.add_argument("--minutes", type=float, default=10.0)
     args = parser.parse_args(argv)
     from signatelec.io import write_bytes_atomic
-    from signatelec.studies.monitor_records import CALIBRATION_SEED, CALIBRATION_STATES, dem_bank
+    from signatelec.studies.monitor_records import CALIBRATION_STATES, DESIGN_SEED, dem_bank
 
     clock = time.process_time()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    bank = dem_bank(args.bank, print, CALIBRATION_STATES, CALIBRATION_SEED)
+    bank = dem_bank(args.bank, print, CALIBRATION_STATES, DESIGN_SEED)
     records, constant = window_tables(bank, out, args.minutes)
     changes = record_table(records)
     rates, series, hours = constant_tables(constant)

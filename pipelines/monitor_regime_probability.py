@@ -4,8 +4,8 @@ Usage::
 
     python pipelines/monitor_regime_probability.py [--bank DIR] [--out DIR]
 
-The calibration records of ``signatelec study monitor`` (:data:`N_CALIBRATION_RECORDS` records
-assembled from the calibration bank, ``--bank``, as the study assembles them: not its acceptance
+The design records of ``signatelec study monitor`` (:data:`N_CALIBRATION_RECORDS` records
+assembled from the design bank, ``--bank``, as the study assembles them: not its acceptance
 records) are monitored with the default model; for each true stretch, the found stretch
 overlapping it most and its windows' regime log-probabilities (per class: their sum, their
 mean, the weight :func:`~signatelec.estimation.evidence.combine_classes` gives the sum) are
@@ -14,13 +14,13 @@ by state (the stretches of one state share its model error), the stretch probabi
 
 - ``summed``: the windows' log-probabilities summed with the weight n_eff / n (evidence that
   grows with the stretch, as if the windows' errors were independent);
-- ``scaled``: the same divided by one temperature fitted on the calibration stretches;
+- ``scaled``: the same divided by one temperature fitted on the design stretches;
 - ``mean``: the mean log-probability times one factor fitted on them (evidence that does not
   grow with the stretch: the model's error is the state's, shared by its windows).
 
 The argmax, and so the regime, is the same for all three; the factors are also fitted per band
 of the estimated epsilon's distance from 0.5 (:data:`BANDS`). ``--model`` asks another model
-file (the regime and F_r of the calibration stretches are printed for it too: how the default
+file (the regime and F_r of the design stretches are printed for it too: how the default
 model's training runs were chosen); ``--seed`` another bank of states drawn alike (records from
 seed + 1, as the study's), e.g. 20263777: 72 states that informed nothing, regime right for
 96.7 % of stretches with the model of the 1200 fast and 1200 uniform paper runs, 98.3 % with
@@ -60,8 +60,8 @@ def collect(
     from signatelec.estimation.persistence import default_model, load_model
     from signatelec.studies.monitor import N_CALIBRATION_RECORDS, N_STRETCHES
     from signatelec.studies.monitor_records import (
-        CALIBRATION_SEED,
         CALIBRATION_STATES,
+        DESIGN_SEED,
         OMEGA_RAD_S,
         SAMPLE_RATE_HZ,
         assemble_record,
@@ -69,7 +69,7 @@ def collect(
         write_record,
     )
 
-    seed = CALIBRATION_SEED if seed is None else seed
+    seed = DESIGN_SEED if seed is None else seed
     name = Path(model_path).stem if model_path else "default"
     cache = out / f"regime_stretches-{name}-{seed}.parquet"
     if cache.is_file():
@@ -213,14 +213,14 @@ def evaluate(table: pd.DataFrame, splits: int = 200, seed: int = 0) -> pd.DataFr
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--bank", default="/tmp/monitor-bank/calibration")
+    p.add_argument("--bank", default="/tmp/monitor-bank/design")
     p.add_argument("--out", default="/tmp/monitor-regime")
     p.add_argument("--model", default=None, help="a model file (default: the default model)")
     p.add_argument(
         "--seed",
         type=int,
         default=None,
-        help="the bank's seed (default: the study's CALIBRATION_SEED; another draws new states)",
+        help="the bank's seed (default: the study's DESIGN_SEED; another draws new states)",
     )
     args = p.parse_args(argv)
     out = Path(args.out)

@@ -1,10 +1,10 @@
-"""Are the monitor's regime errors separable from the trace? Twins of the calibration states.
+"""Are the monitor's regime errors separable from the trace? Twins of the design states.
 
 Usage::
 
     python pipelines/monitor_twins.py [--bank DIR] [--out DIR] [--report FILE]
 
-For each calibration state of the monitoring study that a load-state model of
+For each design state of the monitoring study that a load-state model of
 ``docs/monitor/model_error.md`` called in the wrong regime (:data:`TARGETS`: the states, with
 the regime they were called), DEM runs at the paper's fidelity (velocity Verlet, dt = 1e-7 s;
 the dataset machinery, :func:`signatelec.data.generate`, batched in the ensemble kernel) of
@@ -42,8 +42,8 @@ from monitor_bias import markdown
 WINDOW_S = 0.2
 NOISE = 0.002
 NOISY_WINDOWS = 48
-#: Calibration states a model of docs/monitor/model_error.md called wrong, with the regime it
-#: called them (state index of the calibration bank: the fold of R(epsilon) near 0.345, the
+#: Design states a model of docs/monitor/model_error.md called wrong, with the regime it
+#: called them (state index of the design bank: the fold of R(epsilon) near 0.345, the
 #: vanishing first harmonic near 0.53-0.56, the +-1 um boundary).
 TARGETS = {
     20: "zero",
@@ -96,7 +96,7 @@ def spec_of(states: pd.DataFrame) -> dict:
     return {
         "dataset": {
             "name": "monitor_twins",
-            "description": "Twins of the monitor's misread calibration states",
+            "description": "Twins of the monitor's misread design states",
             "seed": 20261123,
             "fidelity": "dem",
             "duration_s": 0.25,
@@ -267,10 +267,10 @@ def report_lines(result: pd.DataFrame) -> list[str]:
     """The findings, read off the table."""
     d2, r2 = result["D_2 s"], result["D_replicate_2 s"]
     return [
-        "# Are the monitor's regime errors separable? Twins of the misread calibration states",
+        "# Are the monitor's regime errors separable? Twins of the misread design states",
         "",
         f"Written by `python pipelines/monitor_twins.py` (its docstring says how). The "
-        f"{len(result)} calibration states of `signatelec study monitor` that a load-state "
+        f"{len(result)} design states of `signatelec study monitor` that a load-state "
         "model of [model_error.md](model_error.md) called in the wrong regime, each against "
         "DEM runs at the paper's fidelity of the competing regime at the same speed (F_r "
         "0.7-1.4x the state's, epsilon over the regime's range or clearance over -1..+1 um), "
@@ -301,16 +301,16 @@ def report_lines(result: pd.DataFrame) -> list[str]:
 
 def main(argv=None):
     from signatelec.estimation.training import MODEL_FEATURES
-    from signatelec.studies.monitor_records import CALIBRATION_SEED, CALIBRATION_STATES, dem_bank
+    from signatelec.studies.monitor_records import CALIBRATION_STATES, DESIGN_SEED, dem_bank
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--bank", default="/tmp/monitor-bank/calibration")
+    p.add_argument("--bank", default="/tmp/monitor-bank/design")
     p.add_argument("--out", default="/tmp/monitor-twins")
     p.add_argument("--report", default="docs/monitor/twins.md")
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    bank = dem_bank(args.bank, print, CALIBRATION_STATES, CALIBRATION_SEED)
+    bank = dem_bank(args.bank, print, CALIBRATION_STATES, DESIGN_SEED)
     states = bank.set_index("state")
     features = [c for c in MODEL_FEATURES if c not in SKIP]
     table = runs_table(out, states, print)

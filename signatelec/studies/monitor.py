@@ -125,7 +125,10 @@ def run_study(
     work = Path(bank_dir) / "records"
     work.mkdir(exist_ok=True)
     calibration = dem_bank(
-        Path(bank_dir) / "calibration", log, 6 if quick else CALIBRATION_STATES, CALIBRATION_SEED
+        Path(bank_dir) / f"calibration-{CALIBRATION_SEED}",
+        log,
+        6 if quick else CALIBRATION_STATES,
+        CALIBRATION_SEED,
     )
     n_cal = 2 if quick else N_CALIBRATION_RECORDS
     cal_truth, _, _ = run_records(calibration, model, work, n_cal, None, log, CALIBRATION_SEED + 1)

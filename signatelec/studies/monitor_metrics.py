@@ -346,7 +346,8 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "**Model.** The default model, trained on 1200 fast-preset runs and 1800 "
         "paper-fidelity runs (`datasets/load_state.toml`, `datasets/load_state_paper.toml`, "
         "`datasets/load_state_paper_boundary.toml`). The paper-fidelity runs were added, and "
-        "the stretch combination kept, on the evidence of the calibration states alone, "
+        "the stretch combination kept, on the evidence of the design states alone (a bank of "
+        "72 states drawn alike from a third seed, `DESIGN_SEED`), "
         "before these records were monitored with the new model "
         "(`docs/monitor/model_error.md`, `pipelines/monitor_bias.py`): a state's error is "
         "shared by all its windows (it is the model's, not the noise's), is the same on "
@@ -354,15 +355,15 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "training runs grew; the model asked about a stretch's mean features did no better "
         "than the mean of its window estimates, and a regime read from the combined "
         "clearance estimate did worse than the combined classifier. The last 600 runs are "
-        "placed where the calibration states were misread (within 6 um of the +-1 um "
+        "placed where the design states were misread (within 6 um of the +-1 um "
         "boundaries, the fold of R(epsilon) near epsilon 0.35, the first-harmonic null near "
         "0.53-0.56): those states differ from their nearest twins of the other regime by "
         "5-23 noise standard deviations of a 2 s stretch's mean features "
         "(`docs/monitor/twins.md`, `pipelines/monitor_twins.py`), so they are separable; on "
-        "the calibration records the regime went from 94.6 to 97.9 % of stretches and F_r "
+        "the design records the regime went from 94.6 to 97.9 % of stretches and F_r "
         "within 1 % from 95.4 to 97.9 % (`pipelines/monitor_regime_probability.py`). The "
         "stretch regime probability was left as the windows' summed evidence: scaling the "
-        "windows' mean log-probability instead, fitted on the calibration records, lowered "
+        "windows' mean log-probability instead, fitted on the design records, lowered "
         "the former model's log-loss (0.55 -> 0.13) but not the new one's Brier score "
         "(0.042 -> 0.050, cross-validated by state).",
         "",
@@ -379,9 +380,9 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "by the level of the out-of-domain window that straddles it, wherever in that window "
         "it falls; a later block whose ripple screen finds the line off f_bp is screened again "
         "at its end before it is refused (a change within the screen had cost a record 2 s of "
-        "windows). This detector was chosen on the calibration states alone, before these "
+        "windows). This detector was chosen on the design states alone, before these "
         "records were monitored with it: `docs/monitor/change_detection.md` "
-        "(`pipelines/monitor_change_detection.py`: calibration records, and each calibration "
+        "(`pipelines/monitor_change_detection.py`: design records, and each design "
         "state tiled for 10 min, the false-alarm rate measured against nominal).",
         "",
         "| measure | target | measured |",
@@ -433,7 +434,11 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "",
         f"**Calibration records** (not the acceptance records): "
         f"{info['calibration']['states']} other held-out states drawn alike from another seed "
-        "(`CALIBRATION_SEED`), DEM runs as above, assembled into records of 6 stretches of "
+        "(`CALIBRATION_SEED`) that informed nothing else (a conformal quantile covers new "
+        "states only if its calibration states are exchangeable with them: the design "
+        "states, which chose where training runs went, no longer are; on them the ratio of "
+        "the clearance regime for F_r had fallen from 0.90 to 0.67), DEM runs as above, "
+        "assembled into records of 6 stretches of "
         f"2-10 s with other draws; {info['calibration']['stretches']} stretches. Ratios b: "
         + "; ".join(
             f"{t} " + ", ".join(f"{r} {v:.3f}" for r, v in by.items())
