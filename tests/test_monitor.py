@@ -187,7 +187,7 @@ def _scatter_by_stretch(rng, n=300):
     """Independent Gaussian windows (log level and log F_r correlated, 0.8) in stretches of
     10-50 windows whose log F_r and epsilon scatter alternately 0.25x and 4x, at one mean: the
     model's outputs scatter 17x apart in epsilon over the DEM states of the monitoring study's
-    calibration bank (docs/monitor/change_detection.md). (windows, stretch edges)."""
+    design bank (docs/monitor/change_detection.md). (windows, stretch edges)."""
     x = rng.standard_normal((n, 5)) * 1e-3
     x[:, 1] += 0.8 * x[:, 0]
     edges = np.r_[0, np.cumsum(rng.integers(10, 51, size=n // 10))]

@@ -13,9 +13,9 @@ variance of each series (:func:`_local_variance`: residuals about a running medi
 follows the majority side of a step, averaged over a few seconds) and R their correlation over
 the record. The model's outputs scatter very differently from one state to another (epsilon's
 window-to-window standard deviation spans 17x over the DEM states of the monitoring study's
-calibration bank, log F_r 7x; the log level and harmonics, set by the noise, within 1.3x):
+design bank, log F_r 7x; the log level and harmonics, set by the noise, within 1.3x):
 one variance pooled over a record read the windows of a noisy state as changes (8 spurious
-changes in 40 calibration records; docs/monitor/change_detection.md). The statistic of a
+changes in 40 design records; docs/monitor/change_detection.md). The statistic of a
 split at k compares the precision-weighted means of the two sides, T_k = (m_L - m_R)'
 (A^-1 + B^-1)^-1 (m_L - m_R), A and B the sums of the sides' precisions: chi^2 with d degrees
 of freedom under no change; each candidate split is tested at ``false_alarm_per_hour`` x

@@ -104,14 +104,14 @@ CALIBRATION_TABLE = Path(__file__).parent / "data" / "condition_calibration.parq
 #: where that model misread the regime (``datasets/load_state_paper_boundary.toml``: within
 #: 6 um of the +-1 um boundaries, at the fold of R(epsilon) near epsilon 0.35 and the
 #: first-harmonic null near 0.53-0.56). The default model trains on them beside
-#: :data:`DEFAULT_TABLE`. On the monitoring study's calibration states (paper fidelity, 0.2 s
+#: :data:`DEFAULT_TABLE`. On the monitoring study's design states (paper fidelity, 0.2 s
 #: windows at 0.2 % noise) the fast-only model erred alike on fast-preset runs of those
 #: states, and its error fell with the runs: regime of a state's windows combined 86 % with
 #: half of the 1200 fast runs, 90 % with all, 94 % with the uniform paper-fidelity runs too
 #: (F_r within 1 %: 89 % -> 94 %); the paper-fidelity rows also teach the records' own
 #: signature (the cage slip differs between the fidelities). The states it still misread
 #: differ from their nearest twins of the other regime by 5-23 noise standard deviations of a
-#: 2 s stretch (docs/monitor/twins.md): separable, and the placed runs took the calibration
+#: 2 s stretch (docs/monitor/twins.md): separable, and the placed runs took the design
 #: records' regime from 94.6 to 97.9 % of stretches. docs/monitor/model_error.md,
 #: pipelines/monitor_bias.py, pipelines/monitor_twins.py.
 PAPER_TABLE = Path(__file__).parent / "data" / "load_state_paper_features.parquet"
