@@ -48,8 +48,16 @@ REGIMES = ("clearance", "preload", "zero")
 
 
 def collect(
-    bank_dir: Path, out: Path, log=print, model_path: str | None = None, seed: int | None = None
+    bank_dir: Path,
+    out: Path,
+    log=print,
+    model_path: str | None = None,
+    seed: int | None = None,
+    features: tuple[str, ...] = (),
 ) -> pd.DataFrame:
+    """The design stretches (module docstring); with ``features``, also the mean of each over
+    the stretch's windows (the windows then keep them beside the monitor's own)."""
+    from signatelec.estimation import monitor as monitor_module
     from signatelec.estimation.evidence import (
         class_columns,
         effective_fraction,
@@ -71,9 +79,14 @@ def collect(
 
     seed = DESIGN_SEED if seed is None else seed
     name = Path(model_path).stem if model_path else "default"
-    cache = out / f"regime_stretches-{name}-{seed}.parquet"
+    cache = out / f"regime_stretches-{name}-{seed}{'-features' if features else ''}.parquet"
     if cache.is_file():
         return pd.read_parquet(cache)
+    kept = monitor_module.KEPT_FEATURES
+    # the speed is each window's own column already
+    monitor_module.KEPT_FEATURES = tuple(
+        f for f in dict.fromkeys((*kept, *features)) if f != "omega_rad_s"
+    )
     bank = dem_bank(bank_dir, log, CALIBRATION_STATES, seed)
     model = load_model(model_path) if model_path else default_model(log=log)
     settings = MonitorSettings(omega_rad_s=OMEGA_RAD_S)
@@ -116,8 +129,10 @@ def collect(
             for c, s, m in zip(pc, logp.sum(axis=0), logp.mean(axis=0), strict=True):
                 name = c.removeprefix("regime_probability_")
                 row[f"sum_{name}"], row[f"mean_{name}"] = float(s), float(m)
+            row.update({f: float(w[f].mean()) for f in features})
             rows.append(row)
         log(f"record {i}: {len(truth)} stretches")
+    monitor_module.KEPT_FEATURES = kept
     table = pd.DataFrame(rows)
     table.to_parquet(cache)
     return table
