@@ -477,3 +477,51 @@ def test_ratio_per_regime_covers_within_each():
         # one ratio (~0.8) covers |N(0, 1)| <= 0.8 z90 of the time: ~81 %; measured 78.6-84 %
         assert one[(new.regime == "clearance").to_numpy()].mean() < 0.87
         assert ratios[target][ANY_REGIME] > ratios[target]["preload"]
+
+
+@pytest.mark.parametrize("case", ["uniform", "dropout", "rate"])
+def test_parquet_times_from_statistics(model_file, tiles, tmp_path, monkeypatch, case):
+    """Row groups whose time statistics show uniform sampling are read without their time
+    column: the windows equal those of the same record written without statistics (every
+    time read). A dropout of 2 ball-pass quarters inside one row group (its ends and count
+    disagree) is read in full and reported as the gap it is; so is a group sampled 25 %
+    slower (resampled by ``prepare_trace``)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from signatelec.estimation.persistence import load_model
+    from signatelec.measurement.traces import MAX_GAP_BALL_PASSES
+    from signatelec.physics.kinematics import expected_ball_pass_hz
+
+    t, r, _ = _record(tiles, [("low", 5.0)], seed=9)
+    group = 20000  # rows per row group: five groups; the first block of 2 s intact
+    if case == "dropout":
+        lost = int(2 * MAX_GAP_BALL_PASSES / expected_ball_pass_hz(OMEGA) * FS)
+        keep = np.ones(t.size, bool)
+        keep[70000 : 70000 + lost] = False
+        t, r = t[keep], r[keep]
+    if case == "rate":
+        t = t.copy()
+        t[40000:60000] = t[40000] + 1.25 * (t[40000:60000] - t[40000])
+        t[60000:] += t[59999] + 1.0 / FS - t[60000]
+    model = load_model(model_file)
+    frames = []
+    for statistics in (True, False):
+        (tmp_path / str(statistics)).mkdir()
+        monkeypatch.chdir(tmp_path / str(statistics))
+        path = Path("record.parquet")  # one name in the statuses
+        pq.write_table(
+            pa.table({"time_s": t, "resistance_ohm": r}),
+            path,
+            row_group_size=group,
+            write_statistics=statistics,
+        )
+        frames.append(monitor_trace(path, model, MonitorSettings(omega_rad_s=OMEGA)).frame())
+    pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=False, rtol=1e-12)
+    status = frames[0]["status"]
+    # the dropout at 3.5 s refuses its block of 2 s (10 windows), as without statistics
+    gap = status.str.contains("no sample between t = 3.49995 s")
+    assert gap.sum() == (10 if case == "dropout" else 0)
+    # the slower group's resampling shortens the last window of its block
+    assert status[~gap].isin(["ok", "refused: window cut short by a repair"]).all()
+    assert (status == "ok").sum() >= 15
