@@ -50,3 +50,16 @@ def test_split_statistic_under_no_change_is_chi2_with_d_degrees_of_freedom():
     assert abs(t.mean() - d) < 4 * np.sqrt(2 * d / t.size)
     exceed = np.mean(t > stats.chi2.isf(0.05, d))
     assert abs(exceed - 0.05) < 4 * np.sqrt(0.05 * 0.95 / t.size)
+
+
+def test_a_sum_that_is_not_positive_definite_gives_no_statistic():
+    # a window's precision broken to -30 I (rounding can leave a short segment's summed
+    # precision so): the splits whose sides hold it have no statistic, never NaN or inf
+    rng = np.random.default_rng(5)
+    p, z, _, _ = _windows(rng, 30, 3)
+    p[8] = -30.0 * np.eye(3)
+    cum_p = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(p, axis=0)])
+    cum_px = np.vstack([np.zeros(3), np.cumsum(np.einsum("kij,kj->ki", p, z), axis=0)])
+    for a, b in ((0, 30), (0, 12), (5, 30)):
+        k, t = _best_split(cum_p, cum_px, a, b, 3)
+        assert k == -1 or np.isfinite(t)

@@ -515,6 +515,7 @@ def test_parquet_times_from_statistics(model_file, tiles, tmp_path, monkeypatch,
             path,
             row_group_size=group,
             write_statistics=statistics,
+            sorting_columns=[pq.SortingColumn(0)],
         )
         frames.append(monitor_trace(path, model, MonitorSettings(omega_rad_s=OMEGA)).frame())
     pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=False, rtol=1e-12)

@@ -1,7 +1,8 @@
 """Reading a Parquet trace in chunks: which row groups have their times made from statistics.
 
-A row group whose time statistics (ends, count, no nulls) agree with uniform sampling continuing
-the record is read without its time column; its times are made uniform between its ends. The
+A row group declared sorted by time (Parquet's ``sorting_columns``) whose time statistics (ends,
+count, no nulls) agree with uniform sampling continuing the record is read without its time
+column; its times are made uniform between its ends. The
 stored times here carry an interior jitter of 1e-4 of a step (ten times below the jitter
 ``prepare_trace`` accepts), so a made group differs from its stored times and a group read in
 full equals them bit for bit.
@@ -41,9 +42,12 @@ def _groups(case: str) -> list[np.ndarray]:
     return groups
 
 
-def _write(path, groups, statistics=True):
+def _write(path, groups, statistics=True, sorted_by_time=True):
     schema = pa.schema([("time_s", pa.float64()), ("resistance_ohm", pa.float64())])
-    with pq.ParquetWriter(path, schema, write_statistics=statistics) as writer:
+    sorting = [pq.SortingColumn(0)] if sorted_by_time else None
+    with pq.ParquetWriter(
+        path, schema, write_statistics=statistics, sorting_columns=sorting
+    ) as writer:
         for t in groups:
             r = 3e-3 * (1.0 + 0.01 * np.sin(2000.0 * t))
             # from_pandas: NaN becomes a null, as a DataFrame's missing time is written
@@ -93,5 +97,16 @@ def test_groups_read_in_full_or_made(tmp_path, case, read):
 def test_without_statistics_every_group_is_read(tmp_path):
     groups = _groups("uniform")
     times, _ = _read(_write(tmp_path / "t.parquet", groups, statistics=False), groups)
+    for made, stored in zip(times, groups, strict=True):
+        np.testing.assert_array_equal(made, stored)
+
+
+def test_without_a_declared_sort_every_group_is_read(tmp_path):
+    """Statistics alone cannot tell an ordered group from a reversed or shuffled one (same ends,
+    same count): a group not declared sorted by time is read in full, and a reversed group keeps
+    its stored times for prepare_trace to refuse."""
+    groups = _groups("uniform")
+    groups[2] = groups[2][::-1].copy()
+    times, _ = _read(_write(tmp_path / "t.parquet", groups, sorted_by_time=False), groups)
     for made, stored in zip(times, groups, strict=True):
         np.testing.assert_array_equal(made, stored)

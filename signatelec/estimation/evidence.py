@@ -257,7 +257,8 @@ def _best_split(cum_p, cum_px, a: int, b: int, min_segment: int) -> tuple[int, f
     best_k, best_t = -1, 0.0
     for k in range(a + min_segment, b - min_segment + 1):
         t = _quadratic(cum_p, cum_px, a, k, lo) + _quadratic(cum_p, cum_px, k, b, lo) - whole
-        if best_k < 0 or t > best_t:
+        # a sum of precisions that rounding left not positive definite gives no statistic
+        if math.isfinite(t) and (best_k < 0 or t > best_t):
             best_k, best_t = k, t
     return best_k, best_t
 
@@ -278,7 +279,7 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
     while todo:
         a, b = todo.pop()
         k, t = best(a, b)
-        if k < 0 or t <= threshold:
+        if k < 0 or not t > threshold:
             continue
         p_value = min(1.0, (b - a - 1) * stats.chi2.sf(t, d))
         found.append((k, p_value))

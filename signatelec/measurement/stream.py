@@ -3,18 +3,22 @@
 :func:`read_chunks` yields :class:`Chunk` (time, resistance and, when asked, speed columns as
 floats) of at most ``chunk_rows`` rows, so that the memory held does not depend on the file's
 length: Parquet by row groups of at most :data:`GROUP_ROWS` rows (``read_row_group``, the
-columns asked only), larger ones through ``iter_batches``. A row group whose float64 time
-column has statistics showing uniform sampling that continues the record (no nulls, a value per
-row, its first time one step after the previous group's last, and its span (count - 1) steps,
-each within the jitter :func:`~signatelec.measurement.traces.prepare_trace` accepts on one step)
-is read without its time column, its times made uniform between its ends: the decompression of
-a time column is ~1/2 of the reading of a noisy record. The step is that of the times read in
-full (the first row group and every group that fails the test: their span over their count,
-kept from before if their steps are not uniform). The assumption: within a row group whose ends
+columns asked only), larger ones through ``iter_batches``. A row group that its writer declares
+sorted by the float64 time column, ascending (Parquet's ``sorting_columns``; pyarrow:
+``pq.write_table(..., sorting_columns=[pq.SortingColumn(i)])``), and whose statistics show
+uniform sampling that continues the record (no nulls, a value per row, its first time one step
+after the previous group's last, and its span (count - 1) steps, each within the jitter
+:func:`~signatelec.measurement.traces.prepare_trace` accepts on one step) is read without its
+time column, its times made uniform between its ends: the decompression of a time column is
+~1/2 of the reading of a noisy record. The step is that of the times read in full (the first
+row group and every group that fails the test: their span over their count, kept from before
+if their steps are not uniform). The assumption: within a row group declared sorted whose ends
 and count agree with uniform sampling, the samples are uniform; a dropout changes the ends or
-the count of its group (read in full, its gap found), but a NaN time (not a null) or jitter
-between such ends goes unseen (a NaN time would have been dropped and its neighbours
-interpolated onto a uniform grid).
+the count of its group (read in full, its gap found). Rows out of order are refused as before
+in any group not declared sorted (the ends and count of a reversed or shuffled group are those
+of an ordered one, so the statistics alone cannot tell). What goes unseen in a group declared
+sorted: a NaN time (not a null; it would have been dropped and its neighbours interpolated onto
+a uniform grid), a repeated time beside a missing one, and jitter between its ends.
 
 CSV as blocks of whole lines parsed by pandas with the header of the file. The columns are
 checked and converted as :func:`signatelec.measurement.traces.read_trace` does
@@ -84,15 +88,22 @@ def _time_leaf(pf, name: str) -> int | None:
     return next((j for j in range(len(schema)) if schema.column(j).path == name), None)
 
 
-def _uniform_times(column, rows: int, step: float, last: float) -> tuple[float, float] | None:
-    """(first time, step) of a row group whose statistics show uniform sampling continuing the
-    record (module docstring), or None when its times must be read: no statistics, a null, a
-    non-finite end, or ends and count that disagree with ``step`` by more than the jitter
-    :func:`~signatelec.measurement.traces.prepare_trace` accepts on one step (a dropped
-    sample moves them by a whole step), or a first time that is not one step after ``last``."""
-    stats = column.statistics
+def _uniform_times(meta, leaf: int, step: float, last: float) -> tuple[float, float] | None:
+    """(first time, step) of a row group (``meta``, its time column the leaf ``leaf``) declared
+    sorted by time and whose statistics show uniform sampling continuing the record (module
+    docstring), or None when its times must be read: no ascending sort declared on the time
+    column, no statistics, a null, a non-finite end, or ends and count that disagree with
+    ``step`` by more than the jitter :func:`~signatelec.measurement.traces.prepare_trace`
+    accepts on one step (a dropped sample moves them by a whole step), or a first time that is
+    not one step after ``last``."""
+    rows = meta.num_rows
+    sorted_by_time = any(
+        c.column_index == leaf and not c.descending for c in (meta.sorting_columns or ())
+    )
+    stats = meta.column(leaf).statistics
     if (
-        rows < 2
+        not sorted_by_time
+        or rows < 2
         or stats is None
         or not stats.has_min_max
         or not stats.has_null_count
@@ -152,7 +163,7 @@ def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
         size = meta.num_rows
         made = None  # (first time, step) of a group whose times are made, not read
         if leaf is not None and step is not None:
-            made = _uniform_times(meta.column(leaf), size, step, last)
+            made = _uniform_times(meta, leaf, step, last)
         columns = names if made is None else names[1:]
         if size <= GROUP_ROWS:
             # a whole row group read at once, cut into chunks without copying: ~0.6x the
