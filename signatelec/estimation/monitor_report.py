@@ -164,12 +164,9 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     ax.set_xlabel("time (s)")
     _legend(ax)
     # the alarms as one collection of vertical lines per axis and colour (axvline's spans)
-    for colour, kinds in (("C3", ("load",)), ("C4", None)):
-        times = [
-            alarm["time_s"]
-            for alarm in summary["alarms"]
-            if (alarm["kind"] in kinds if kinds else alarm["kind"] != "load")
-        ]
+    load = [alarm["time_s"] for alarm in summary["alarms"] if alarm["kind"] == "load"]
+    other = [alarm["time_s"] for alarm in summary["alarms"] if alarm["kind"] != "load"]
+    for colour, times in (("C3", load), ("C4", other)):
         if times:
             for a in axes:
                 a.vlines(
