@@ -526,3 +526,39 @@ def test_parquet_times_from_statistics(model_file, tiles, tmp_path, monkeypatch,
     # the slower group's resampling shortens the last window of its block
     assert status[~gap].isin(["ok", "refused: window cut short by a repair"]).all()
     assert (status == "ok").sum() >= 15
+
+
+def test_acceptance_figures_follow_the_acceptance_definitions():
+    """A true change counts as found when a reported change lies within one window (|error|
+    <= 0.2 s); F_r within 1 % and coverage over every stretch; the regime over stretches of
+    2 s or more only. Four hand-made stretches and three true changes give the shares by
+    counting."""
+    from signatelec.studies.monitor_metrics import acceptance_figures
+
+    truth = pd.DataFrame(
+        {
+            "state": [0, 1, 2, 3],
+            "length_s": [1.0, 2.0, 5.0, 60.0],
+            "regime": ["zero", "zero", "preload", "clearance"],
+            "regime_est": ["preload", "zero", "clearance", "clearance"],
+        }
+    )
+    for target, true in (("radial_load_n", 5000.0), ("epsilon", 0.5), ("clearance_m", 1e-6)):
+        truth[target] = true
+        truth[f"{target}_est"] = true * np.array([1.005, 1.02, 0.995, 1.0])
+        truth[f"{target}_low"] = true * np.array([0.99, 1.01, 0.99, 0.99])
+        truth[f"{target}_high"] = true * 1.01
+    changes = pd.DataFrame(
+        {
+            "kind": ["true", "true", "true", "spurious", "spurious"],
+            "error_s": [0.0, -0.2, 0.25, np.nan, np.nan],
+            "in_constant": [np.nan, np.nan, np.nan, True, False],
+        }
+    )
+    f = acceptance_figures(truth, changes)
+    assert f["changes_within_window"] == pytest.approx(2 / 3)
+    assert (f["spurious_in_constant"], f["spurious_elsewhere"]) == (1, 1)
+    assert f["load_within_1pct"] == pytest.approx(3 / 4)
+    assert f["load_error_max"] == pytest.approx(0.02)
+    assert (f["long_stretches"], f["regime_right"]) == (3, pytest.approx(2 / 3))
+    assert f["coverage_epsilon"] == pytest.approx(3 / 4)
