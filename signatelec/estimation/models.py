@@ -460,12 +460,20 @@ class LoadStateModel:
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])
 
+    def predict_columns(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """The columns of :meth:`predict_frame` for rows of features in the order of
+        :attr:`features` (an array), without pandas or validation overhead (a monitor asks
+        for thousands of windows); ValueError naming the features that are not finite."""
+        x = np.asarray(x, dtype=np.float64)
+        if not np.all(np.isfinite(x)):
+            finite = np.isfinite(x).all(axis=0)
+            bad = [n for n, ok in zip(self.features, finite, strict=True) if not ok]
+            raise ValueError(f"features not finite: {', '.join(bad)}")
+        return self.estimator._predict_columns(x)
+
     def predict_one(self, features: dict[str, float]) -> dict:
         """Estimates for one trace's features (a dict by name), without pandas or validation
         overhead (~5 ms less): the columns are put in the fitted order here."""
         x = np.array([[features[name] for name in self.features]], dtype=np.float64)
-        if not np.all(np.isfinite(x)):
-            bad = [n for n, v in zip(self.features, x[0], strict=True) if not np.isfinite(v)]
-            raise ValueError(f"features not finite: {', '.join(bad)}")
-        cols = self.estimator._predict_columns(x)
+        cols = self.predict_columns(x)
         return {k: (v[0].item() if hasattr(v[0], "item") else v[0]) for k, v in cols.items()}

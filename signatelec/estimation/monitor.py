@@ -39,12 +39,12 @@ import pandas as pd
 from signatelec.estimation.analysis import analyse_windows
 from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
-from signatelec.estimation.features import trace_features
+from signatelec.estimation.features import trace_feature_names, window_features
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import CHUNK_ROWS, read_chunks
-from signatelec.measurement.traces import TraceError, prepare_trace
+from signatelec.measurement.traces import N_HARMONICS, TraceError, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Default window and hop, s: 200 ms windows are the longest of the training windows
@@ -157,22 +157,32 @@ def _thread_pools():
     return ThreadpoolController()
 
 
-def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) -> None:
-    """The model's estimates of a batch of windows, asked once, written into ``rows``."""
+@functools.cache
+def _feature_columns(n_harmonics: int = N_HARMONICS) -> dict[str, int]:
+    """Column of each feature in :func:`~signatelec.estimation.features.window_features`."""
+    return {name: i for i, name in enumerate(trace_feature_names(n_harmonics))}
+
+
+def _estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateModel) -> None:
+    """The model's estimates of a batch of windows (their rows of the feature table), asked
+    once, written into ``rows``."""
     if not feats:
         return
-    X = pd.DataFrame(feats)
+    table = np.stack(feats)
+    column = _feature_columns()
     with _thread_pools().limit(limits=1):
-        pred = model.predict_frame(X)
-    scores = np.ones(len(X))
+        pred = model.predict_columns(table[:, [column[name] for name in model.features]])
+    scores = np.ones(len(table))
     if model.domain is not None:
         d = model.domain
-        z = (X[list(d.features)].to_numpy(float) - d.centre) / d.scale
+        z = (table[:, [column[name] for name in d.features]] - d.centre) / d.scale
         d2 = np.einsum("ij,jk,ik->i", z, d.precision, z)
         scores = np.array([d.score_of_distance(float(v)) for v in d2])
     coverage = model.info.get("coverage", DEFAULT_COVERAGE)
-    probs = [c for c in pred.columns if c.startswith("regime_probability_")]
-    for i, (row, out) in enumerate(zip(rows, pred.to_dict("records"), strict=True)):
+    probs = [c for c in pred if c.startswith("regime_probability_")]
+    names, values = list(pred), [v.tolist() for v in pred.values()]
+    for i, row in enumerate(rows):
+        out = {name: v[i] for name, v in zip(names, values, strict=True)}
         out["in_domain_score"] = float(scores[i])
         out["interval_coverage"] = coverage
         if probs:
@@ -265,8 +275,9 @@ class _Windows:
 
     def _measure(self, windows, fs: float) -> None:
         """Features of windows [(row, segment, omega)] of one length, analysed together
-        (:func:`~signatelec.estimation.analysis.analyse_windows`), written into the rows (all
-        of them under ``_features``, for the model)."""
+        (:func:`~signatelec.estimation.analysis.analyse_windows`) and measured together
+        (:func:`~signatelec.estimation.features.window_features`), written into the rows (all
+        of them under ``_features``, a row of the table, for the model)."""
         if not windows:
             return
         x = np.stack([seg for _, seg, _ in windows])
@@ -276,21 +287,19 @@ class _Windows:
             for row, _, _ in windows:
                 row["status"] = f"refused: {exc}"
             return
+        table = window_features(analyses)
+        column = _feature_columns(analyses[0].n_harmonics)
+        kept = table[:, [column[name] for name in KEPT_FEATURES]].tolist()
+        snr = table[:, column["harmonic_snr"]].tolist()
+        found = table[:, column["ball_pass_found_hz"]].tolist()
         lows, highs = x.min(axis=1).tolist(), x.max(axis=1).tolist()
-        for (row, _, omega), a, low, high in zip(windows, analyses, lows, highs, strict=True):
-            f = trace_features(None, analysis=a)
-            row.update(
-                omega_rad_s=omega,
-                resistance_min_ohm=low,
-                resistance_max_ohm=high,
-                **{name: f[name] for name in KEPT_FEATURES},
-            )
-            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
+        for i, ((row, _, omega), low, high) in enumerate(zip(windows, lows, highs, strict=True)):
+            row.update(omega_rad_s=omega, resistance_min_ohm=low, resistance_max_ohm=high)
+            row.update(zip(KEPT_FEATURES, kept[i], strict=True))
+            if self.s.track_speed and snr[i] >= TRACK_MIN_SNR:
                 # the found line predicts the next window's speed (kinematics are linear in it)
-                self.tracked = f["ball_pass_found_hz"] / (
-                    expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)
-                )
-            row["_features"] = f
+                self.tracked = found[i] / (expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP))
+            row["_features"] = table[i]
 
     def _estimate(self, lo, hi, start, n_per) -> None:
         clock = time.process_time()
