@@ -247,7 +247,7 @@ def _group(names: Callable[[int], list[str]]):
             analysis: TraceAnalysis | None = None,
         ) -> dict[str, float]:
             a = analysis_of(resistance_ohm, sample_rate_hz, omega_rad_s, n_harmonics, analysis)
-            values = np.column_stack(columns(_Batch([a])))[0].tolist()
+            values = np.array(columns(_Batch([a])))[:, 0].tolist()
             return dict(zip(names(a.n_harmonics), values, strict=True))
 
         for attr in ("__module__", "__name__", "__qualname__", "__doc__"):
@@ -504,4 +504,4 @@ def window_features(analyses) -> np.ndarray:
     of a table whose columns are :func:`trace_feature_names`: the same values, computed for
     all traces at once (a monitor's batch of windows: ~10 us a window against ~80 us one by
     one)."""
-    return np.column_stack(trace_features.columns(_Batch(analyses)))
+    return np.array(trace_features.columns(_Batch(analyses))).T

@@ -34,7 +34,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
 
 from signatelec.estimation.domain import Domain
-from signatelec.estimation.forest import SMALL_BATCH, FlatForest
+from signatelec.estimation.forest import FlatForest
 
 TARGETS = ("radial_load_n", "epsilon", "clearance_m")
 CLASS_TARGET = "regime"
@@ -177,9 +177,7 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
 
     def _quantiles(self, X: np.ndarray) -> np.ndarray:
         """(median, lower, upper) of validated rows, shape (n, 3); quantile links are identity."""
-        if X.shape[0] <= SMALL_BATCH:
-            return self.forest_.raw(X)
-        return np.stack([m.predict(X) for m in (self.median_, self.lower_, self.upper_)], axis=1)
+        return self.forest_.raw(X)
 
     def _median_and_interval(
         self, X: np.ndarray, margin: np.ndarray | None = None
@@ -196,9 +194,7 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
     def predict(self, X):
         check_is_fitted(self, "margin_")
         X = validate_data(self, X, reset=False, dtype=np.float64)
-        if X.shape[0] <= SMALL_BATCH:
-            return self.forest_.raw(X)[:, 0]
-        return self.median_.predict(X)
+        return self.forest_.raw(X)[:, 0]
 
     def predict_interval(self, X) -> np.ndarray:
         """[low, high] per row, shape (n, 2), always around the median."""
@@ -279,10 +275,7 @@ class RegimeClassifier(ClassifierMixin, _Boosting, BaseEstimator):
     def _proba(self, X: np.ndarray) -> np.ndarray:
         if self.model_ is None:
             return np.ones((X.shape[0], 1))
-        if X.shape[0] <= SMALL_BATCH:
-            p = self.model_._loss.predict_proba(self.forest_.raw(X))
-        else:
-            p = self.model_.predict_proba(X)
+        p = self.model_._loss.predict_proba(self.forest_.raw(X))
         return _softmax_log(p, self.temperature_)
 
     def predict_proba(self, X) -> np.ndarray:
