@@ -52,9 +52,8 @@ from signatelec.physics.kinematics import expected_ball_pass_hz
 WINDOW_S = 0.2
 #: Trace per block of windows: repaired and screened together.
 BLOCK_S = 2.0
-#: Windows whose features the model is asked about in one batch (one thread: scikit-learn's
-#: threaded prediction is ~10x slower on busy cores). Per window, ~0.09 ms in batches of 1000,
-#: 0.14 ms of 300, 0.24 ms of 100; a followed file is answered every 100 windows.
+#: Windows whose features the model is asked about in one batch (its compiled walk of the
+#: trees: ~0.02 ms a window in batches of 1000); a followed file is answered every 100 windows.
 BATCH_WINDOWS = 1000
 FOLLOW_BATCH_WINDOWS = 100
 #: Length of each block's ripple and level screening (the ripple search costs ~T^2).
@@ -150,14 +149,6 @@ def _screen(trace, omega, model: LoadStateModel, first: bool):
 
 
 @functools.cache
-def _thread_pools():
-    """The process's thread pools (threadpoolctl), found once: a search costs ~8 ms, per batch."""
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()
-
-
-@functools.cache
 def _feature_columns(n_harmonics: int = N_HARMONICS) -> dict[str, int]:
     """Column of each feature in :func:`~signatelec.estimation.features.window_features`."""
     return {name: i for i, name in enumerate(trace_feature_names(n_harmonics))}
@@ -170,8 +161,9 @@ def _estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateM
         return
     table = np.stack(feats)
     column = _feature_columns()
-    with _thread_pools().limit(limits=1):
-        pred = model.predict_columns(table[:, [column[name] for name in model.features]])
+    # one thread: the compiled walk of the trees (scikit-learn's threaded one was ~10x slower
+    # on busy cores)
+    pred = model.predict_columns(table[:, [column[name] for name in model.features]])
     scores = np.ones(len(table))
     if model.domain is not None:
         d = model.domain
