@@ -47,6 +47,9 @@ transformer                function                     features
 :class:`RippleFeatures`    :func:`ripple_features`      waveform of one ball pass: shape stats
 :class:`TraceFeatures`     :func:`trace_features`       all of the above (one analysis)
 =========================  ===========================  =========================================
+
+:func:`window_features` gives :func:`trace_features` of many analyses as the rows of one table:
+the same values, computed for all of them together (a monitor's block of windows).
 """
 
 from __future__ import annotations
