@@ -56,6 +56,9 @@ BLOCK_S = 2.0
 #: trees: ~0.02 ms a window in batches of 1000); a followed file is answered every 100 windows.
 BATCH_WINDOWS = 1000
 FOLLOW_BATCH_WINDOWS = 100
+#: Analysed windows whose features are measured together (~7 us a window against ~20 us in
+#: blocks of 10; their analyses, ~0.16 MB a window at 50 kHz, wait meanwhile).
+MEASURE_WINDOWS = 100
 #: Length of each block's ripple and level screening (the ripple search costs ~T^2).
 SCREEN_S = 0.5
 #: Trace between two screenings of the ripple (the first block is always screened): a speed
@@ -202,6 +205,7 @@ class _Windows:
         self.ripple = "unchecked"  # the last screening's ripple status
         self.next_screen_s = -math.inf
         self.pending: list[dict] = []  # windows waiting for the model
+        self.unmeasured: list[tuple] = []  # (row, analysis) of windows waiting for features
 
     def add(self, chunk) -> None:
         self.t = np.concatenate([self.t, chunk.time_s])
@@ -232,6 +236,7 @@ class _Windows:
     def flush(self) -> None:
         """Ask the model about the pending windows and file them in the table."""
         clock = time.process_time()
+        self._features()
         ok = [row for row in self.pending if "_features" in row]
         _estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
         if self.pending:
@@ -266,10 +271,10 @@ class _Windows:
         return True
 
     def _measure(self, windows, fs: float) -> None:
-        """Features of windows [(row, segment, omega)] of one length, analysed together
-        (:func:`~signatelec.estimation.analysis.analyse_windows`) and measured together
-        (:func:`~signatelec.estimation.features.window_features`), written into the rows (all
-        of them under ``_features``, a row of the table, for the model)."""
+        """Analyses of windows [(row, segment, omega)] of one length, computed together
+        (:func:`~signatelec.estimation.analysis.analyse_windows`); their features follow
+        (:meth:`_features`) once :data:`MEASURE_WINDOWS` wait, or at once when the speed is
+        tracked (the next window's speed is read from this one's)."""
         if not windows:
             return
         x = np.stack([seg for _, seg, _ in windows])
@@ -279,14 +284,27 @@ class _Windows:
             for row, _, _ in windows:
                 row["status"] = f"refused: {exc}"
             return
+        lows, highs = x.min(axis=1).tolist(), x.max(axis=1).tolist()
+        for (row, _, omega), a, low, high in zip(windows, analyses, lows, highs, strict=True):
+            row.update(omega_rad_s=omega, resistance_min_ohm=low, resistance_max_ohm=high)
+            self.unmeasured.append((row, a))
+        if self.s.track_speed or len(self.unmeasured) >= MEASURE_WINDOWS:
+            self._features()
+
+    def _features(self) -> None:
+        """Features of the analysed windows waiting for them, measured together
+        (:func:`~signatelec.estimation.features.window_features`), written into their rows
+        (all of them under ``_features``, a row of the table, for the model)."""
+        if not self.unmeasured:
+            return
+        rows, analyses = zip(*self.unmeasured, strict=True)
+        self.unmeasured = []
         table = window_features(analyses)
         column = _feature_columns(analyses[0].n_harmonics)
         kept = table[:, [column[name] for name in KEPT_FEATURES]].tolist()
         snr = table[:, column["harmonic_snr"]].tolist()
         found = table[:, column["ball_pass_found_hz"]].tolist()
-        lows, highs = x.min(axis=1).tolist(), x.max(axis=1).tolist()
-        for i, ((row, _, omega), low, high) in enumerate(zip(windows, lows, highs, strict=True)):
-            row.update(omega_rad_s=omega, resistance_min_ohm=low, resistance_max_ohm=high)
+        for i, row in enumerate(rows):
             row.update(zip(KEPT_FEATURES, kept[i], strict=True))
             if self.s.track_speed and snr[i] >= TRACK_MIN_SNR:
                 # the found line predicts the next window's speed (kinematics are linear in it)
