@@ -21,7 +21,6 @@ from signatelec.cli import main
 from signatelec.estimation import persistence
 from signatelec.estimation.estimate import estimate
 from signatelec.estimation.features import FEATURE_SET_VERSION
-from signatelec.estimation.forest import SMALL_BATCH
 from signatelec.estimation.models import IntervalRegressor, LoadStateEstimator, RegimeClassifier
 from signatelec.estimation.persistence import ModelError, load_model, read_model_header, save_model
 from signatelec.estimation.report import format_estimate
@@ -116,16 +115,26 @@ def test_load_state_estimator_table():
 
 
 def test_flat_forest_matches_scikit_learn():
-    """The numpy walk of the trees gives scikit-learn's predictions (few rows use it)."""
+    """The compiled walk of the trees gives scikit-learn's predictions to the last bit (the
+    same sums in the same order), for one row and for many, with missing values sent where
+    the trees send them."""
     X, y, cls, groups = _overlap_data(n=300)
     reg = IntervalRegressor(max_iter=30, n_splits=2).fit(X, y, groups=groups)
     clf = RegimeClassifier(max_iter=30, n_splits=2).fit(X, cls, groups=groups)
-    few = X[:SMALL_BATCH]
-    np.testing.assert_allclose(reg.predict(few), reg.median_.predict(few), rtol=1e-12)
-    np.testing.assert_allclose(reg._quantiles(few)[:, 2], reg.upper_.predict(few), rtol=1e-12)
-    np.testing.assert_allclose(
-        clf.forest_.raw(few), clf.model_._raw_predict(few), rtol=1e-12, atol=1e-12
+    for rows in (X[:1], X):
+        np.testing.assert_array_equal(reg.predict(rows), reg.median_.predict(rows))
+        np.testing.assert_array_equal(reg._quantiles(rows)[:, 2], reg.upper_.predict(rows))
+        np.testing.assert_array_equal(clf.predict_proba(rows), clf._proba(rows))
+        np.testing.assert_array_equal(
+            clf.model_._loss.predict_proba(clf.forest_.raw(rows)), clf.model_.predict_proba(rows)
+        )
+    holed = X.copy()
+    holed[::7, 0] = np.nan
+    models = (reg.median_, reg.lower_, reg.upper_)
+    np.testing.assert_array_equal(
+        reg.forest_.raw(holed), np.hstack([m._raw_predict(holed) for m in models])
     )
+    np.testing.assert_array_equal(clf.forest_.raw(holed), clf.model_._raw_predict(holed))
 
 
 def test_model_features_are_trace_features():

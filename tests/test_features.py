@@ -242,12 +242,17 @@ def test_windows_analysed_together_equal_one_by_one(clean_signal):
     rows = r[: 6 * n].reshape(6, n).copy()
     rows[:5] *= 1.0 + 0.002 * rng.standard_normal((5, n))
     omegas = np.array([500.0, 500.0, 505.0, 500.0, 500.0, 500.0])
-    together = [F.trace_features(None, analysis=a) for a in analyse_windows(rows, fs, omegas)]
-    for row, omega, batch in zip(rows, omegas, together, strict=True):
+    analyses = analyse_windows(rows, fs, omegas)
+    together = [F.trace_features(None, analysis=a) for a in analyses]
+    table = F.window_features(analyses)
+    assert table.shape == (len(rows), len(F.trace_feature_names()))
+    for row, omega, batch, measured in zip(rows, omegas, together, table, strict=True):
         alone = F.trace_features(row, fs, omega)
         assert list(batch) == list(alone)
         for name, value in alone.items():
             assert batch[name] == pytest.approx(value, rel=1e-9, abs=1e-300), name
+        # the features of the batch measured together: the same bits as the window alone
+        assert measured.tolist() == list(batch.values())
 
 
 def test_analysis_does_not_depend_on_the_one_before(clean_signal):
@@ -381,3 +386,30 @@ def test_window_statistics_are_numpy_s(n):
             assert np.array_equal(st["fold_sums"], sums)  # the same additions, in order
         else:
             assert "fold_counts" not in st
+
+
+def test_compiled_sums_and_band_powers_are_numpy_s():
+    """The batch's compiled pieces give numpy's bits: the pairwise sum of 0 to 300 values
+    (numpy's blocks of 8 and halves above 128), and the band powers of spectra on uneven
+    grids (bands with many bins, one, none: interpolated at the centre, or beyond the last
+    bin) equal :func:`~signatelec.estimation.analysis.band_power` band by band."""
+    from signatelec.estimation.analysis import band_power
+
+    rng = np.random.default_rng(11)
+    for n in range(301):
+        x = rng.random(n) * 10.0 ** rng.uniform(-3, 3, n)
+        assert F._pairwise_sum(x) == np.add.reduce(x), n
+    rows = []
+    for n in (1, 3, 40, 260):
+        f = np.sort(rng.uniform(0.0, 100.0, n))
+        rows.append((f, rng.random(n)))
+    start = np.concatenate([[0], np.cumsum([f.size for f, _ in rows])])
+    batch = object.__new__(F._Batch)
+    batch.freq, batch.start = np.concatenate([f for f, _ in rows]), start
+    p = np.concatenate([q for _, q in rows])
+    lo = rng.uniform(0.0, 110.0, (len(rows), 30))
+    hi = lo + rng.choice([0.01, 0.5, 5.0, 60.0], size=lo.shape)
+    got = batch.band_powers(p, lo, hi)
+    for w, (f, q) in enumerate(rows):
+        for b in range(lo.shape[1]):
+            assert got[w, b] == band_power(f, q, lo[w, b], hi[w, b]), (w, b)

@@ -325,6 +325,17 @@ def test_false_alarms_on_white_noise():
     assert found <= 2.5 * 2 * R.FALSE_ALARM * n_traces
 
 
+def test_noise_floor_of_the_searched_bins_is_the_whole_spectrum_s():
+    """The searches read the noise floor up to a few f_bp only: the floor of those first bins,
+    without the grid's medians beyond them, is that of the whole spectrum to the last bit (a
+    bin on a point of the grid, between two, near the spectrum's ends, past its end)."""
+    power = np.random.default_rng(2).exponential(size=5001)
+    full = R._floor(power, 0.5, 300.0)  # windows of +-600 bins, grid every 150
+    for bins in (1, 2, 150, 599, 600, 601, 1500, 4500, 5001, 9000):
+        part = R._floor(power, 0.5, 300.0, bins=bins)
+        np.testing.assert_array_equal(part, full[: min(bins, full.size)])
+
+
 def test_frequency_scatter_follows_cramer_rao():
     """The found frequency scatters as the Cramer-Rao bound sqrt(6 / z) / (2 pi T) times
     SIGMA_FACTOR (Rife & Boorstyn 1974), within 30 %: the tolerance's basis."""

@@ -34,7 +34,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
 
 from signatelec.estimation.domain import Domain
-from signatelec.estimation.forest import SMALL_BATCH, FlatForest
+from signatelec.estimation.forest import FlatForest
 
 TARGETS = ("radial_load_n", "epsilon", "clearance_m")
 CLASS_TARGET = "regime"
@@ -177,9 +177,7 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
 
     def _quantiles(self, X: np.ndarray) -> np.ndarray:
         """(median, lower, upper) of validated rows, shape (n, 3); quantile links are identity."""
-        if X.shape[0] <= SMALL_BATCH:
-            return self.forest_.raw(X)
-        return np.stack([m.predict(X) for m in (self.median_, self.lower_, self.upper_)], axis=1)
+        return self.forest_.raw(X)
 
     def _median_and_interval(
         self, X: np.ndarray, margin: np.ndarray | None = None
@@ -196,9 +194,7 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
     def predict(self, X):
         check_is_fitted(self, "margin_")
         X = validate_data(self, X, reset=False, dtype=np.float64)
-        if X.shape[0] <= SMALL_BATCH:
-            return self.forest_.raw(X)[:, 0]
-        return self.median_.predict(X)
+        return self.forest_.raw(X)[:, 0]
 
     def predict_interval(self, X) -> np.ndarray:
         """[low, high] per row, shape (n, 2), always around the median."""
@@ -279,10 +275,7 @@ class RegimeClassifier(ClassifierMixin, _Boosting, BaseEstimator):
     def _proba(self, X: np.ndarray) -> np.ndarray:
         if self.model_ is None:
             return np.ones((X.shape[0], 1))
-        if X.shape[0] <= SMALL_BATCH:
-            p = self.model_._loss.predict_proba(self.forest_.raw(X))
-        else:
-            p = self.model_.predict_proba(X)
+        p = self.model_._loss.predict_proba(self.forest_.raw(X))
         return _softmax_log(p, self.temperature_)
 
     def predict_proba(self, X) -> np.ndarray:
@@ -460,12 +453,20 @@ class LoadStateModel:
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])
 
+    def predict_columns(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """The columns of :meth:`predict_frame` for rows of features in the order of
+        :attr:`features` (an array), without pandas or validation overhead (a monitor asks
+        for thousands of windows); ValueError naming the features that are not finite."""
+        x = np.asarray(x, dtype=np.float64)
+        if not np.all(np.isfinite(x)):
+            finite = np.isfinite(x).all(axis=0)
+            bad = [n for n, ok in zip(self.features, finite, strict=True) if not ok]
+            raise ValueError(f"features not finite: {', '.join(bad)}")
+        return self.estimator._predict_columns(x)
+
     def predict_one(self, features: dict[str, float]) -> dict:
         """Estimates for one trace's features (a dict by name), without pandas or validation
         overhead (~5 ms less): the columns are put in the fitted order here."""
         x = np.array([[features[name] for name in self.features]], dtype=np.float64)
-        if not np.all(np.isfinite(x)):
-            bad = [n for n, v in zip(self.features, x[0], strict=True) if not np.isfinite(v)]
-            raise ValueError(f"features not finite: {', '.join(bad)}")
-        cols = self.estimator._predict_columns(x)
+        cols = self.predict_columns(x)
         return {k: (v[0].item() if hasattr(v[0], "item") else v[0]) for k, v in cols.items()}

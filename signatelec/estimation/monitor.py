@@ -39,12 +39,12 @@ import pandas as pd
 from signatelec.estimation.analysis import analyse_windows
 from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
-from signatelec.estimation.features import trace_features
+from signatelec.estimation.features import trace_feature_names, window_features
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import CHUNK_ROWS, read_chunks
-from signatelec.measurement.traces import TraceError, prepare_trace
+from signatelec.measurement.traces import N_HARMONICS, TraceError, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Default window and hop, s: 200 ms windows are the longest of the training windows
@@ -52,11 +52,13 @@ from signatelec.physics.kinematics import expected_ball_pass_hz
 WINDOW_S = 0.2
 #: Trace per block of windows: repaired and screened together.
 BLOCK_S = 2.0
-#: Windows whose features the model is asked about in one batch (one thread: scikit-learn's
-#: threaded prediction is ~10x slower on busy cores). Per window, ~0.09 ms in batches of 1000,
-#: 0.14 ms of 300, 0.24 ms of 100; a followed file is answered every 100 windows.
+#: Windows whose features the model is asked about in one batch (its compiled walk of the
+#: trees: ~0.02 ms a window in batches of 1000); a followed file is answered every 100 windows.
 BATCH_WINDOWS = 1000
 FOLLOW_BATCH_WINDOWS = 100
+#: Analysed windows whose features are measured together (~7 us a window against ~20 us in
+#: blocks of 10; their analyses, ~0.16 MB a window at 50 kHz, wait meanwhile).
+MEASURE_WINDOWS = 100
 #: Length of each block's ripple and level screening (the ripple search costs ~T^2).
 SCREEN_S = 0.5
 #: Trace between two screenings of the ripple (the first block is always screened): a speed
@@ -150,29 +152,32 @@ def _screen(trace, omega, model: LoadStateModel, first: bool):
 
 
 @functools.cache
-def _thread_pools():
-    """The process's thread pools (threadpoolctl), found once: a search costs ~8 ms, per batch."""
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()
+def _feature_columns(n_harmonics: int = N_HARMONICS) -> dict[str, int]:
+    """Column of each feature in :func:`~signatelec.estimation.features.window_features`."""
+    return {name: i for i, name in enumerate(trace_feature_names(n_harmonics))}
 
 
-def _estimate_batch(rows: list[dict], feats: list[dict], model: LoadStateModel) -> None:
-    """The model's estimates of a batch of windows, asked once, written into ``rows``."""
+def _estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateModel) -> None:
+    """The model's estimates of a batch of windows (their rows of the feature table), asked
+    once, written into ``rows``."""
     if not feats:
         return
-    X = pd.DataFrame(feats)
-    with _thread_pools().limit(limits=1):
-        pred = model.predict_frame(X)
-    scores = np.ones(len(X))
+    table = np.stack(feats)
+    column = _feature_columns()
+    # one thread: the compiled walk of the trees (scikit-learn's threaded one was ~10x slower
+    # on busy cores)
+    pred = model.predict_columns(table[:, [column[name] for name in model.features]])
+    scores = np.ones(len(table))
     if model.domain is not None:
         d = model.domain
-        z = (X[list(d.features)].to_numpy(float) - d.centre) / d.scale
+        z = (table[:, [column[name] for name in d.features]] - d.centre) / d.scale
         d2 = np.einsum("ij,jk,ik->i", z, d.precision, z)
         scores = np.array([d.score_of_distance(float(v)) for v in d2])
     coverage = model.info.get("coverage", DEFAULT_COVERAGE)
-    probs = [c for c in pred.columns if c.startswith("regime_probability_")]
-    for i, (row, out) in enumerate(zip(rows, pred.to_dict("records"), strict=True)):
+    probs = [c for c in pred if c.startswith("regime_probability_")]
+    names, values = list(pred), [v.tolist() for v in pred.values()]
+    for i, row in enumerate(rows):
+        out = {name: v[i] for name, v in zip(names, values, strict=True)}
         out["in_domain_score"] = float(scores[i])
         out["interval_coverage"] = coverage
         if probs:
@@ -200,6 +205,7 @@ class _Windows:
         self.ripple = "unchecked"  # the last screening's ripple status
         self.next_screen_s = -math.inf
         self.pending: list[dict] = []  # windows waiting for the model
+        self.unmeasured: list[tuple] = []  # (row, analysis) of windows waiting for features
 
     def add(self, chunk) -> None:
         self.t = np.concatenate([self.t, chunk.time_s])
@@ -230,6 +236,7 @@ class _Windows:
     def flush(self) -> None:
         """Ask the model about the pending windows and file them in the table."""
         clock = time.process_time()
+        self._features()
         ok = [row for row in self.pending if "_features" in row]
         _estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
         if self.pending:
@@ -264,9 +271,10 @@ class _Windows:
         return True
 
     def _measure(self, windows, fs: float) -> None:
-        """Features of windows [(row, segment, omega)] of one length, analysed together
-        (:func:`~signatelec.estimation.analysis.analyse_windows`), written into the rows (all
-        of them under ``_features``, for the model)."""
+        """Analyses of windows [(row, segment, omega)] of one length, computed together
+        (:func:`~signatelec.estimation.analysis.analyse_windows`); their features follow
+        (:meth:`_features`) once :data:`MEASURE_WINDOWS` wait, or at once when the speed is
+        tracked (the next window's speed is read from this one's)."""
         if not windows:
             return
         x = np.stack([seg for _, seg, _ in windows])
@@ -278,19 +286,30 @@ class _Windows:
             return
         lows, highs = x.min(axis=1).tolist(), x.max(axis=1).tolist()
         for (row, _, omega), a, low, high in zip(windows, analyses, lows, highs, strict=True):
-            f = trace_features(None, analysis=a)
-            row.update(
-                omega_rad_s=omega,
-                resistance_min_ohm=low,
-                resistance_max_ohm=high,
-                **{name: f[name] for name in KEPT_FEATURES},
-            )
-            if self.s.track_speed and f["harmonic_snr"] >= TRACK_MIN_SNR:
+            row.update(omega_rad_s=omega, resistance_min_ohm=low, resistance_max_ohm=high)
+            self.unmeasured.append((row, a))
+        if self.s.track_speed or len(self.unmeasured) >= MEASURE_WINDOWS:
+            self._features()
+
+    def _features(self) -> None:
+        """Features of the analysed windows waiting for them, measured together
+        (:func:`~signatelec.estimation.features.window_features`), written into their rows
+        (all of them under ``_features``, a row of the table, for the model)."""
+        if not self.unmeasured:
+            return
+        rows, analyses = zip(*self.unmeasured, strict=True)
+        self.unmeasured = []
+        table = window_features(analyses)
+        column = _feature_columns(analyses[0].n_harmonics)
+        kept = table[:, [column[name] for name in KEPT_FEATURES]].tolist()
+        snr = table[:, column["harmonic_snr"]].tolist()
+        found = table[:, column["ball_pass_found_hz"]].tolist()
+        for i, row in enumerate(rows):
+            row.update(zip(KEPT_FEATURES, kept[i], strict=True))
+            if self.s.track_speed and snr[i] >= TRACK_MIN_SNR:
                 # the found line predicts the next window's speed (kinematics are linear in it)
-                self.tracked = f["ball_pass_found_hz"] / (
-                    expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP)
-                )
-            row["_features"] = f
+                self.tracked = found[i] / (expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP))
+            row["_features"] = table[i]
 
     def _estimate(self, lo, hi, start, n_per) -> None:
         clock = time.process_time()

@@ -122,13 +122,20 @@ def _detrended(r: np.ndarray) -> np.ndarray:
     return x - slope * t
 
 
-def _floor(power: np.ndarray, df: float, half_width_hz: float, pad: int = PAD) -> np.ndarray:
+def _floor(
+    power: np.ndarray, df: float, half_width_hz: float, pad: int = PAD, bins: int | None = None
+) -> np.ndarray:
     """Noise floor per bin: the median over +-half_width_hz / ln 2, of every ``pad``-th bin
     (the independent ones), on a coarse grid, interpolated (a median at every bin of a 1 s,
-    50 kHz trace would take seconds)."""
+    50 kHz trace would take seconds). ``bins``: only the floor of the first so many bins (the
+    searches read up to a few f_bp: the medians of the grid beyond are not taken); each bin's
+    floor is the same as that of the whole spectrum."""
     n = power.size
     half = max(int(half_width_hz / df), 1)
     centres = np.arange(0, n, max(half // 4, 1))
+    bins = n if bins is None else min(bins, n)
+    # the grid's points up to the first at or past the last bin asked for
+    centres = centres[: int(np.searchsorted(centres, bins - 1)) + 1]
     med = np.empty(centres.size)
     # the windows inside the spectrum: equal lengths, their medians in one call
     inner = (centres >= half) & (centres + half + 1 <= n)
@@ -138,7 +145,7 @@ def _floor(power: np.ndarray, df: float, half_width_hz: float, pad: int = PAD) -
     for i in np.flatnonzero(~inner):
         c = centres[i]
         med[i] = np.median(power[max(0, c - half) : c + half + 1 : pad])
-    return np.interp(np.arange(n), centres, med) / math.log(2.0)
+    return np.interp(np.arange(bins), centres, med) / math.log(2.0)
 
 
 def _vertex(x: np.ndarray, y: np.ndarray, i: int) -> float:
@@ -225,12 +232,20 @@ def find_ripple(
     if r.size < 4 or not float(np.max(np.abs(x))) > 1e-12 * max(level, 1e-300):
         return Ripple("constant", **base)
     power, df = padded_power(x, fs)
+    f_max = 0.45 * fs
+    # the searches: the wide band, and the comb of harmonics near the expected frequency
+    lo_hz, hi_hz = WIDE_BAND[0] * f_exp, min(WIDE_BAND[1] * f_exp, f_max)
+    ks = [k for k in range(1, n_harmonics + 1) if k * f_exp * (1 + SEARCH_REL) < f_max]
+    step = 1.0 / (8.0 * duration * ks[-1]) if ks else 1.0
+    cand = np.arange(f_exp * (1 - SEARCH_REL), f_exp * (1 + SEARCH_REL) + step, step)
+    # z is read up to the highest of them (and the next bin, for interpolation and vertex)
+    reach = max(hi_hz, ks[-1] * float(cand[-1]) if ks else 0.0)
     half_width = max(FLOOR_HALF_WIDTH * f_exp, FLOOR_MIN_CELLS / duration)
-    floor = np.maximum(_floor(power, df, half_width), 1e-300)
+    floor = np.maximum(_floor(power, df, half_width, bins=int(reach / df) + 3), 1e-300)
+    power = power[: floor.size]
     z = power / floor
     m = max(MEDIAN_EFFICIENCY * 2.0 * half_width * duration, 1.0)
     bins = np.arange(z.size)
-    f_max = 0.45 * fs
 
     def at(freqs) -> np.ndarray:
         return np.interp(np.asarray(freqs) / df, bins, z)
@@ -245,7 +260,6 @@ def find_ripple(
         return lo <= f / (k * f_exp) - 1.0 <= hi, (lo, hi)
 
     # the strongest line of the wide band
-    lo_hz, hi_hz = WIDE_BAND[0] * f_exp, min(WIDE_BAND[1] * f_exp, f_max)
     sel = np.flatnonzero((bins * df >= lo_hz) & (bins * df <= hi_hz))
     if sel.size:
         j = int(sel[np.argmax(z[sel])])
@@ -275,11 +289,8 @@ def find_ripple(
             if amp >= ELSEWHERE_MIN_REL * level:
                 return Ripple("elsewhere", **line, **base)
     # no line: the comb near the expected frequency
-    ks = [k for k in range(1, n_harmonics + 1) if k * f_exp * (1 + SEARCH_REL) < f_max]
     if not ks:
         return Ripple("none", **base)
-    step = 1.0 / (8.0 * duration * ks[-1])
-    cand = np.arange(f_exp * (1 - SEARCH_REL), f_exp * (1 + SEARCH_REL) + step, step)
     band = 2.0 * SEARCH_REL * f_exp * duration
     # the fundamental alone (most of the ripple, mostly) and the sum over the harmonics (where
     # the fundamental vanishes), each with half the false-alarm budget

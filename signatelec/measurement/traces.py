@@ -247,8 +247,8 @@ def prepare_trace(
     if n0 < 4:
         raise TraceError(f"{where}: {n0} samples; a trace needs at least 4")
 
-    bad_t = ~np.isfinite(t)
-    if bad_t.any():
+    if not np.isfinite(t).all():
+        bad_t = ~np.isfinite(t)
         if bad_t.mean() > MAX_BAD_FRACTION:
             raise TraceError(
                 f"{where}: time missing or not finite in {bad_t.mean():.1%} of the rows "
@@ -257,7 +257,9 @@ def prepare_trace(
         t, r = t[~bad_t], r[~bad_t]
         repairs.append(f"dropped {int(bad_t.sum())} rows without a time")
     dt = np.diff(t)
-    if np.any(dt <= 0.0):
+    # the extremes of the steps, read again below: increasing means the smallest is > 0
+    dt_min, dt_max = float(dt.min()), float(dt.max())
+    if not dt_min > 0.0:
         i = int(np.flatnonzero(dt <= 0.0)[0])
         raise TraceError(
             f"{where}: time does not increase at row {i + 1} (t = {t[i]:.9g} s, then "
@@ -269,58 +271,65 @@ def prepare_trace(
     f_bp = expected_ball_pass_hz(omega_rad_s)
     max_gap_s = MAX_GAP_BALL_PASSES / f_bp
 
-    is_open = np.isinf(r) | (r <= 0.0) | (r > OPEN_CIRCUIT_OHM)
-    is_nan = np.isnan(r)
-    # shares as counts over the size: np.mean's numbers, without its float sum
-    open_share = np.count_nonzero(is_open) / r.size
-    if open_share > MAX_OPEN_FRACTION:
-        raise TraceError(
-            f"{where}: open circuit (resistance infinite, <= 0 or above {OPEN_CIRCUIT_OHM:g} ohm) "
-            f"in {open_share:.1%} of the "
-            f"samples (at most {MAX_OPEN_FRACTION:.0%} can be filled in); no ball touched both "
-            "rings, or the meter lost contact"
-        )
-    bad = is_open | is_nan
-    bad_share = np.count_nonzero(bad) / r.size
-    if bad_share > MAX_BAD_FRACTION:
-        raise TraceError(
-            f"{where}: {bad_share:.1%} of the resistance samples are missing or not finite "
-            f"(at most {MAX_BAD_FRACTION:.0%} can be filled in)"
-        )
-    if bad.all():
-        raise TraceError(f"{where}: no finite resistance sample")
-    # cut missing ends, then check the inner gaps
-    good = ~bad
-    lo, hi = int(np.argmax(good)), r.size - int(np.argmax(good[::-1]))
-    cut = lo > 0 or hi < r.size
-    if cut:
-        repairs.append(f"cut {lo + r.size - hi} missing samples at the ends")
-        t, r, bad = t[lo:hi], r[lo:hi], bad[lo:hi]
-    for a, b in _runs(bad):
-        gap = t[b] - t[a - 1]
-        if gap > max_gap_s:
+    # every sample a resistance in range (nearly every block of a record): the extremes say so
+    # without the masks below (a NaN makes them NaN and the test fail)
+    r_checked = r
+    r_lo, r_hi = float(r.min()), float(r.max())
+    cut = False
+    if not (r_lo > 0.0 and r_hi <= OPEN_CIRCUIT_OHM):
+        is_open = np.isinf(r) | (r <= 0.0) | (r > OPEN_CIRCUIT_OHM)
+        is_nan = np.isnan(r)
+        # shares as counts over the size: np.mean's numbers, without its float sum
+        open_share = np.count_nonzero(is_open) / r.size
+        if open_share > MAX_OPEN_FRACTION:
             raise TraceError(
-                f"{where}: {b - a} missing samples from t = {t[a]:.6g} s ({gap * 1e3:.3g} ms): "
-                f"longer than {MAX_GAP_BALL_PASSES:g} of a ball pass ({max_gap_s * 1e3:.3g} ms "
-                f"at {omega_rad_s:g} rad/s); cut the trace there"
+                f"{where}: open circuit (resistance infinite, <= 0 or above "
+                f"{OPEN_CIRCUIT_OHM:g} ohm) in {open_share:.1%} of the samples (at most "
+                f"{MAX_OPEN_FRACTION:.0%} can be filled in); no ball touched both rings, or the "
+                "meter lost contact"
             )
-    if bad.any():
-        n_open = int((is_open[lo:hi]).sum())
-        r = r.copy()
-        r[bad] = np.interp(t[bad], t[~bad], r[~bad])
-        what = (
-            f"{int(bad.sum())} missing samples"
-            if not n_open
-            else (f"{int(bad.sum()) - n_open} missing and {n_open} open-circuit samples")
-        )
-        repairs.append(f"interpolated {what}")
+        bad = is_open | is_nan
+        bad_share = np.count_nonzero(bad) / r.size
+        if bad_share > MAX_BAD_FRACTION:
+            raise TraceError(
+                f"{where}: {bad_share:.1%} of the resistance samples are missing or not finite "
+                f"(at most {MAX_BAD_FRACTION:.0%} can be filled in)"
+            )
+        if bad.all():
+            raise TraceError(f"{where}: no finite resistance sample")
+        # cut missing ends, then check the inner gaps
+        good = ~bad
+        lo, hi = int(np.argmax(good)), r.size - int(np.argmax(good[::-1]))
+        cut = lo > 0 or hi < r.size
+        if cut:
+            repairs.append(f"cut {lo + r.size - hi} missing samples at the ends")
+            t, r, bad = t[lo:hi], r[lo:hi], bad[lo:hi]
+        for a, b in _runs(bad):
+            gap = t[b] - t[a - 1]
+            if gap > max_gap_s:
+                raise TraceError(
+                    f"{where}: {b - a} missing samples from t = {t[a]:.6g} s "
+                    f"({gap * 1e3:.3g} ms): longer than {MAX_GAP_BALL_PASSES:g} of a ball pass "
+                    f"({max_gap_s * 1e3:.3g} ms at {omega_rad_s:g} rad/s); cut the trace there"
+                )
+        if bad.any():
+            n_open = int((is_open[lo:hi]).sum())
+            r = r.copy()
+            r[bad] = np.interp(t[bad], t[~bad], r[~bad])
+            what = (
+                f"{int(bad.sum())} missing samples"
+                if not n_open
+                else (f"{int(bad.sum()) - n_open} missing and {n_open} open-circuit samples")
+            )
+            repairs.append(f"interpolated {what}")
     # uniform sampling (the time steps and their median change only if the ends were cut: a
     # median of a long block's steps is a good part of a monitored window's cost)
     if cut:
         dt = np.diff(t)
+        dt_min, dt_max = float(dt.min()), float(dt.max())
         step = float(np.median(dt, overwrite_input=True))
         fs = 1.0 / step
-    if dt.size and dt.max() > max_gap_s:
+    if dt_max > max_gap_s:
         i = int(np.flatnonzero(np.diff(t) > max_gap_s)[0])
         raise TraceError(
             f"{where}: no sample between t = {t[i]:.6g} s and {t[i + 1]:.6g} s: a gap longer "
@@ -328,7 +337,7 @@ def prepare_trace(
             "trace there"
         )
     # max |dt - step| from the extremes (a rounded difference is monotonic: the same number)
-    jitter = float(max(dt.max() - step, step - dt.min()) / step)
+    jitter = max(dt_max - step, step - dt_min) / step
     if jitter > JITTER_TOLERANCE:
         n = int(math.floor((t[-1] - t[0]) * fs + 1e-9)) + 1
         grid = t[0] + np.arange(n) * step
@@ -347,7 +356,8 @@ def prepare_trace(
         )
     # the median is below the floor only if at least half the samples are (a count is cheaper
     # than a median of a long block; the median itself is taken for the message)
-    below = np.count_nonzero(r < MIN_LEVEL_OHM)
+    # (none below it when the samples checked above are kept as they were and their least is not)
+    below = 0 if r is r_checked and r_lo >= MIN_LEVEL_OHM else np.count_nonzero(r < MIN_LEVEL_OHM)
     if 2 * below >= r.size - 1 and (level := float(np.median(r))) < MIN_LEVEL_OHM:
         raise TraceError(
             f"{where}: median resistance {level:.3g} ohm: below {MIN_LEVEL_OHM:g} ohm, smaller "
