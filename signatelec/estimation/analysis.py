@@ -209,22 +209,44 @@ def _periodic_hann(n: int) -> np.ndarray:
     return window
 
 
-def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]:
-    """One-sided Welch density (Hann, half overlap) of each row, segments of ``nper`` samples
-    (:func:`_welch_rows`: ``passes`` ball passes).
+@njit(cache=True, error_model="numpy")
+def _mean_square(a: np.ndarray, scale: float, out: np.ndarray) -> None:
+    """out[r] = mean over segments of a[r] ** 2 (a: rows, segments, bins) divided by ``scale``,
+    in one pass without the numpy form's two temporaries. The segments are added one after the
+    other, as numpy's mean over a non-contiguous axis adds them: the same numbers as
+    ``np.mean(a ** 2, axis=1) / scale``."""
+    rows, segs, bins = a.shape
+    for r in range(rows):
+        for j in range(bins):
+            v = a[r, 0, j]
+            out[r, j] = v * v
+        for k in range(1, segs):
+            for j in range(bins):
+                v = a[r, k, j]
+                out[r, j] += v * v
+        for j in range(bins):
+            out[r, j] = out[r, j] / segs / scale
+
+
+def _welch(xs: tuple, fs: float, nper: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """One-sided Welch density (Hann, half overlap) of each row of each array of ``xs`` (rows of
+    one length), segments of ``nper`` samples (:func:`_welch_rows`: ``passes`` ball passes).
 
     The same estimate as ``scipy.signal.welch(..., detrend=False)``, with the segments
     transformed in batches of rows (a 1 s trace at 50 kHz has ~200 of them).
     """
     step = max(nper // 2, 1)
     win = _periodic_hann(nper)
-    seg = np.lib.stride_tricks.sliding_window_view(x, nper, axis=1)[:, ::step]
-    p = np.empty((x.shape[0], nper // 2 + 1))
-    for part in _pieces(x.shape[0], seg.shape[1] * nper * 8):
-        p[part] = np.mean(np.abs(sfft.rfft(seg[part] * win, axis=2)) ** 2, axis=1)
-    p /= fs * float(win @ win)
-    p[:, 1 : (None if nper % 2 else -1)] *= 2.0
-    return sfft.rfftfreq(nper, 1.0 / fs), p
+    scale = fs * float(win @ win)
+    out = []
+    for x in xs:
+        seg = np.lib.stride_tricks.sliding_window_view(x, nper, axis=1)[:, ::step]
+        p = np.empty((x.shape[0], nper // 2 + 1))
+        for part in _pieces(x.shape[0], seg.shape[1] * nper * 8):
+            _mean_square(np.abs(sfft.rfft(seg[part] * win, axis=2)), scale, p[part])
+        p[:, 1 : (None if nper % 2 else -1)] *= 2.0
+        out.append(p)
+    return sfft.rfftfreq(nper, 1.0 / fs), out
 
 
 def band_mean(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
@@ -281,16 +303,18 @@ def _by_harmonics(f_bp: np.ndarray, n_harmonics: int, fs: float) -> dict[tuple, 
     return {ks: np.asarray(rows) for ks, rows in groups.items()}
 
 
-def _welch_rows(x: np.ndarray, fs: float, f_bp: np.ndarray, passes: int) -> list[tuple]:
-    """(freq, density) of each row by :func:`_welch`, rows of one segment length together."""
-    n = x.shape[1]
+def _welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int) -> list[list[tuple]]:
+    """(freq, density) of each row of each array of ``xs`` by :func:`_welch`, rows of one
+    segment length together."""
+    n = xs[0].shape[1]
     nper = [max(1, min(int(round(passes * fs / f)) if f > 0 else n, n)) for f in f_bp]
-    out: list = [None] * len(nper)
+    out: list = [[None] * len(nper) for _ in xs]
     for length in set(nper):
         rows = [w for w, v in enumerate(nper) if v == length]
-        freq, p = _welch(x[rows], fs, length)
-        for i, w in enumerate(rows):
-            out[w] = (freq, p[i])
+        freq, ps = _welch(tuple(x[rows] for x in xs), fs, length)
+        for o, p in zip(out, ps, strict=True):
+            for i, w in enumerate(rows):
+                o[w] = (freq, p[i])
     return out
 
 
@@ -367,6 +391,7 @@ def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
     values = np.zeros((rows, 11))
     counts = np.zeros((rows, FOLD_BINS), np.int64)
     sums = np.zeros((rows, FOLD_BINS))
+    bins = np.empty(n, np.int64)
     for w in range(rows):
         med = _sorted_select(det_sorted[w], 0.5)
         e_med = _sorted_select(res_sorted[w], 0.5)
@@ -426,9 +451,19 @@ def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
         if n >= FOLD_BINS:
             for i in range(n):
                 cycles = t[i] * f_bp[w]
-                b = int(math.floor((cycles - math.floor(cycles)) * FOLD_BINS)) % FOLD_BINS
-                counts[w, b] += 1
-                sums[w, b] += det[w, i]
+                bins[i] = int(math.floor((cycles - math.floor(cycles)) * FOLD_BINS)) % FOLD_BINS
+            # a bin's samples come in runs (~fs / (f_bp FOLD_BINS) of them): each run is
+            # added to the bin's total in a register, in the samples' order (the same sums as
+            # one sample at a time into the array, ~3x faster)
+            i = 0
+            while i < n:
+                b, run, total = bins[i], 0, sums[w, bins[i]]
+                while i < n and bins[i] == b:
+                    total += det[w, i]
+                    run += 1
+                    i += 1
+                sums[w, b] = total
+                counts[w, b] += run
     return values, counts, sums
 
 
@@ -521,8 +556,7 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
             coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]
         n_fitted[idx] = len(ks)
     detrended = x - level[:, None] - slope[:, None] * tc
-    spectra = _welch_rows(detrended, fs, f_bp, passes_per_segment)
-    residual_spectra = _welch_rows(residual, fs, f_bp, passes_per_segment)
+    spectra, residual_spectra = _welch_rows((detrended, residual), fs, f_bp, passes_per_segment)
     stats = _row_statistics(detrended, residual, fs, f_bp)
     out = []
     for w in range(rows):

@@ -192,7 +192,14 @@ def _subtract_harmonics(
     blocks, block, top = start_powers.shape[1], within_powers.shape[1], within_powers.shape[2]
     out = np.empty((rows, n))
     fit = np.empty(block)
+    w_re, w_im = np.empty((top, block)), np.empty((top, block))
     for w in range(rows):
+        # the within-block powers by harmonic, contiguous in the sample: the loop over the
+        # samples then vectorises (the same operations on each sample)
+        for j in range(top):
+            for i in range(block):
+                w_re[j, i] = within_powers[w, i, j].real
+                w_im[j, i] = within_powers[w, i, j].imag
         for b in range(blocks):
             i0 = b * block
             m = min(block, n - i0)
@@ -200,8 +207,7 @@ def _subtract_harmonics(
             for j in range(top):
                 d = c[w, j] * start_powers[w, b, j]
                 for i in range(m):
-                    z = within_powers[w, i, j]
-                    fit[i] += d.real * z.real - d.imag * z.imag
+                    fit[i] += d.real * w_re[j, i] - d.imag * w_im[j, i]
             for i in range(m):
                 out[w, i0 + i] = r[w, i0 + i] - level[w] - slope[w] * tc[i0 + i] - fit[i]
     return out
