@@ -249,6 +249,47 @@ def _welch(xs: tuple, fs: float, nper: int) -> tuple[np.ndarray, list[np.ndarray
     return sfft.rfftfreq(nper, 1.0 / fs), out
 
 
+@njit(cache=True, error_model="numpy")
+def pairwise_sum(a: np.ndarray) -> float:
+    """np.add.reduce of a contiguous 1-D float array, as numpy adds it (the same bits): below
+    8 values one after the other, up to 128 in eight running sums then pairwise, beyond that
+    the two halves (cut at a multiple of 8) summed so and added."""
+    n = a.size
+    if n < 8:
+        s = -0.0
+        for i in range(n):
+            s += a[i]
+        return s
+    if n > 128:
+        half = n // 2
+        half -= half % 8
+        return pairwise_sum(a[:half]) + pairwise_sum(a[half:])
+    r = a[:8].copy()
+    i = 8
+    while i < n - n % 8:
+        for j in range(8):
+            r[j] += a[i + j]
+        i += 8
+    s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    while i < n:
+        s += a[i]
+        i += 1
+    return s
+
+
+@njit(cache=True, error_model="numpy")
+def _band_means(f: np.ndarray, p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """:func:`band_mean` of each row of ``p`` (over ``f``) in the bands [lo, hi) of its row
+    (rows, bands), compiled; NaN where no bin is in a band (the caller interpolates there)."""
+    out = np.empty(lo.shape)
+    for w in range(lo.shape[0]):
+        for b in range(lo.shape[1]):
+            i = np.searchsorted(f, lo[w, b])
+            j = np.searchsorted(f, hi[w, b])
+            out[w, b] = pairwise_sum(p[w, i:j]) / (j - i) if j > i else np.nan
+    return out
+
+
 def band_mean(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
     """Mean of ``p`` over the bins of ``f`` (ascending) in [lo, hi); interpolated at the
     band's centre when no bin is in it."""
@@ -303,19 +344,16 @@ def _by_harmonics(f_bp: np.ndarray, n_harmonics: int, fs: float) -> dict[tuple, 
     return {ks: np.asarray(rows) for ks, rows in groups.items()}
 
 
-def _welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int) -> list[list[tuple]]:
-    """(freq, density) of each row of each array of ``xs`` by :func:`_welch`, rows of one
-    segment length together."""
+def _welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int) -> list[tuple]:
+    """The Welch densities of the rows of each array of ``xs`` by :func:`_welch`, rows of one
+    segment length together: (rows, freq, [density of those rows of each array]) per length."""
     n = xs[0].shape[1]
-    nper = [max(1, min(int(round(passes * fs / f)) if f > 0 else n, n)) for f in f_bp]
-    out: list = [[None] * len(nper) for _ in xs]
-    for length in set(nper):
-        rows = [w for w, v in enumerate(nper) if v == length]
-        freq, ps = _welch(tuple(x[rows] for x in xs), fs, length)
-        for o, p in zip(out, ps, strict=True):
-            for i, w in enumerate(rows):
-                o[w] = (freq, p[i])
-    return out
+    nper = np.array([max(1, min(int(round(passes * fs / f)) if f > 0 else n, n)) for f in f_bp])
+    groups = []
+    for length in np.unique(nper):
+        rows = np.flatnonzero(nper == length)
+        groups.append((rows, *_welch(tuple(x[rows] for x in xs), fs, int(length))))
+    return groups
 
 
 #: The statistics of :func:`_row_statistics`, in the order of :func:`_statistics_pass`'s columns.
@@ -556,18 +594,22 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
             coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]
         n_fitted[idx] = len(ks)
     detrended = x - level[:, None] - slope[:, None] * tc
-    spectra, residual_spectra = _welch_rows((detrended, residual), fs, f_bp, passes_per_segment)
+    psd_f, psd, residual_psd = [None] * rows, [None] * rows, [None] * rows
+    noise_density = np.empty((rows, n_harmonics))
+    half = np.arange(1, n_harmonics + 1) - 0.5  # the band of harmonic k: (k -+ 0.5) f_bp
+    for idx, freq, (p, p_res) in _welch_rows((detrended, residual), fs, f_bp, passes_per_segment):
+        lo, hi = half * f_bp[idx, None], (half + 1.0) * f_bp[idx, None]
+        noise_density[idx] = _band_means(freq, p_res, lo, hi)
+        for i, w in enumerate(idx):
+            psd_f[w], psd[w], residual_psd[w] = freq, p[i], p_res[i]
+    for w, j in np.argwhere(np.isnan(noise_density)):  # bands without a bin
+        k = j + 1
+        noise_density[w, j] = band_mean(
+            psd_f[w], residual_psd[w], (k - 0.5) * f_bp[w], (k + 0.5) * f_bp[w]
+        )
     stats = _row_statistics(detrended, residual, fs, f_bp)
     out = []
     for w in range(rows):
-        psd_f, psd = spectra[w]
-        res_psd = residual_spectra[w][1]
-        noise_density = np.array(
-            [
-                band_mean(psd_f, res_psd, (k - 0.5) * f_bp[w], (k + 0.5) * f_bp[w])
-                for k in range(1, n_harmonics + 1)
-            ]
-        )
         out.append(
             TraceAnalysis(
                 sample_rate_hz=fs,
@@ -580,12 +622,12 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
                 ball_pass_hz=float(f_bp[w]),
                 search_peak_ratio=float(peak_ratio[w]),
                 coefficients=coefficients[w],
-                noise_density=noise_density,
+                noise_density=noise_density[w],
                 residual=residual[w],
                 detrended=detrended[w],
-                psd_freq_hz=psd_f,
-                psd=psd,
-                residual_psd=res_psd,
+                psd_freq_hz=psd_f[w],
+                psd=psd[w],
+                residual_psd=residual_psd[w],
                 n_fitted=int(n_fitted[w]),
                 statistics=stats[w],
             )
