@@ -163,23 +163,44 @@ def _find_ball_pass(
             for i, w in enumerate(take):
                 np.multiply(x[w], hann(n), out=padded[0, :n])
                 power[part + i] = np.abs(sfft.rfft(padded[0])[columns]) ** 2
-        total = np.zeros((rows.size, cand.size))
-        at = 0
-        for ok, weight in zip(oks, weights, strict=True):
-            m = weight.size
-            below, above = power[:, at : at + m], power[:, at + m : at + 2 * m]
-            total[:, ok] += (above - below) * weight + below
-            at += 2 * m
-        best = np.argmax(total, axis=1)
-        med = np.median(total, axis=1)
-        for w, i, m, tot in zip(rows, best, med, total, strict=True):
-            f = float(cand[i])
-            if 0 < i < cand.size - 1:
-                a, b, c = tot[i - 1], tot[i], tot[i + 1]
-                den = a - 2.0 * b + c
-                if den < 0.0:
-                    f += step * float(np.clip(0.5 * (a - c) / den, -0.5, 0.5))
-            found[w], ratio[w] = f, float(tot[i] / m) if m > 0 else 1.0
+        found[rows], ratio[rows] = _search_peaks(
+            power,
+            np.concatenate([np.flatnonzero(ok) for ok in oks]),
+            np.concatenate(weights),
+            np.array([w.size for w in weights]),
+            cand,
+            step,
+        )
+    return found, ratio
+
+
+@njit(cache=True, error_model="numpy")
+def _search_peaks(power, at_candidate, weights, sizes, cand, step):
+    """Per row of ``power`` (|X|^2 at the bins below and above each harmonic's candidates, by
+    harmonic), the summed harmonic power at the candidates (the straight line between the two
+    bins, ``weights`` of the upper), its peak refined by a parabola through the neighbours, and
+    the peak-to-median ratio: the (frequency, ratio) of :func:`_find_ball_pass`."""
+    rows = power.shape[0]
+    found, ratio = np.empty(rows), np.empty(rows)
+    total = np.empty(cand.size)
+    for w in range(rows):
+        total[:] = 0.0
+        col = off = 0
+        for m in sizes:
+            for q in range(m):
+                below, above = power[w, col + q], power[w, col + m + q]
+                total[at_candidate[off + q]] += (above - below) * weights[off + q] + below
+            col += 2 * m
+            off += m
+        i = np.argmax(total)
+        med = _sorted_select(np.sort(total), 0.5)
+        f = cand[i]
+        if 0 < i < cand.size - 1:
+            a, b, c = total[i - 1], total[i], total[i + 1]
+            den = a - 2.0 * b + c
+            if den < 0.0:
+                f += step * min(max(0.5 * (a - c) / den, -0.5), 0.5)
+        found[w], ratio[w] = f, total[i] / med if med > 0 else 1.0
     return found, ratio
 
 
