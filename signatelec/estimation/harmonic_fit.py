@@ -274,35 +274,44 @@ def harmonic_equations(
     cos_s, sin_s = sums
     powers = _factor_powers(phasor_factors(tc, f) if factors is None else factors, kmax)
     rsums = _power_sums(*powers, r, tc)
-    cols = _columns(ks, derivative)
-    p, sn, k = (c[:, None] for c in cols.T)
-    q, sm, l_ = (c[None, :] for c in cols.T)
-    power, dif, tot = p + q, np.abs(k - l_), k + l_
-    sign = np.sign(l_ - k)
-    # cos cos: (C(k-l) + C(k+l)) / 2; sin sin: (C(k-l) - C(k+l)) / 2;
-    # cos_k sin_l: (S(k+l) + sign(l-k) S(|l-k|)) / 2
-    cc = (sn == 0) & (sm == 0)
-    ss = (sn == 1) & (sm == 1)
-    cs = (sn == 0) & (sm == 1)
-    sc = (sn == 1) & (sm == 0)
-    gram = 0.5 * np.where(
-        cc,
-        cos_s[:, power, dif] + cos_s[:, power, tot],
-        np.where(
-            ss,
-            cos_s[:, power, dif] - cos_s[:, power, tot],
-            np.where(
-                cs,
-                sin_s[:, power, tot] + sign * sin_s[:, power, dif],
-                np.where(sc, sin_s[:, power, tot] - sign * sin_s[:, power, dif], 0.0),
-            ),
-        ),
+    return _assemble(
+        _columns(ks, derivative), cos_s, sin_s, rsums, r.sum(axis=1), (r * tc).sum(axis=1)
     )
-    # design r: sums of r t^p (cos, sin)(k phi), p = 0, 1, k = 0..k_max
-    rc, rs = np.zeros((rows, 2, kmax + 1)), np.zeros((rows, 2, kmax + 1))
-    rc[:, 0, 0], rc[:, 1, 0] = r.sum(axis=1), (r * tc).sum(axis=1)
-    rc[:, :, 1:], rs[:, :, 1:] = rsums[..., 0], rsums[..., 1]
-    rhs = np.where(cols[:, 1] == 1, rs[:, cols[:, 0], cols[:, 2]], rc[:, cols[:, 0], cols[:, 2]])
+
+
+@njit(cache=True, error_model="numpy")
+def _assemble(cols, cos_s, sin_s, rsums, r_sum, rt_sum):
+    """(design design', design r) per row from the closed-form sums (:func:`_dirichlet_sums`)
+    and the data's (:func:`_power_sums`; ``r_sum``, ``rt_sum``: sum r and sum r t), for the
+    columns ``cols`` (:func:`_columns`). Products of cosines and sines are half sums:
+    cos cos (C(k-l) + C(k+l)) / 2, sin sin (C(k-l) - C(k+l)) / 2,
+    cos_k sin_l (S(k+l) + sign(l-k) S(|l-k|)) / 2 and sin_k cos_l with the sign reversed;
+    compiled (the numpy form's selections over the (rows, m, m) entries cost ~0.1 ms a call)."""
+    rows, m = cos_s.shape[0], cols.shape[0]
+    gram, rhs = np.empty((rows, m, m)), np.empty((rows, m))
+    for a in range(m):
+        p, sn, k = cols[a, 0], cols[a, 1], cols[a, 2]
+        for b in range(m):
+            q, sm, l_ = cols[b, 0], cols[b, 1], cols[b, 2]
+            power, dif, tot = p + q, abs(k - l_), k + l_
+            sign = float((l_ > k) - (l_ < k))
+            for w in range(rows):
+                if sn == 0 and sm == 0:
+                    v = cos_s[w, power, dif] + cos_s[w, power, tot]
+                elif sn == 1 and sm == 1:
+                    v = cos_s[w, power, dif] - cos_s[w, power, tot]
+                elif sn == 0:
+                    v = sin_s[w, power, tot] + sign * sin_s[w, power, dif]
+                else:
+                    v = sin_s[w, power, tot] - sign * sin_s[w, power, dif]
+                gram[w, a, b] = 0.5 * v
+        for w in range(rows):
+            if k > 0:
+                rhs[w, a] = rsums[w, p, k - 1, sn]
+            elif sn == 1:
+                rhs[w, a] = 0.0
+            else:
+                rhs[w, a] = r_sum[w] if p == 0 else rt_sum[w]
     return gram, rhs
 
 
