@@ -356,6 +356,40 @@ def analyse_trace(
     return _analyse(r[None], fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)[0]
 
 
+def _rows(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """x[idx] for ascending rows ``idx``, without the copy when they are all of x's rows (a
+    block's windows mostly share their harmonics and segment length)."""
+    return x if idx.size == x.shape[0] else x[idx]
+
+
+@njit(cache=True, error_model="numpy")
+def _line_fit(x: np.ndarray, tcc: np.ndarray, denom: float) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, least-squares slope against the centred times ``tcc``) per row; the slope 0 when
+    ``denom`` (sum tcc^2) is 0. numpy's sums (:func:`pairwise_sum`): the same numbers as
+    ``x.mean(axis=1)`` and ``np.sum(tcc * (x - mean), axis=1) / denom``, without the
+    temporaries."""
+    rows, n = x.shape
+    level, slope = np.empty(rows), np.zeros(rows)
+    centred = np.empty(n)
+    for w in range(rows):
+        level[w] = pairwise_sum(x[w]) / n
+        if denom > 0.0:
+            for i in range(n):
+                centred[i] = tcc[i] * (x[w, i] - level[w])
+            slope[w] = pairwise_sum(centred) / denom
+    return level, slope
+
+
+@njit(cache=True, error_model="numpy")
+def _detrend(x: np.ndarray, level: np.ndarray, slope: np.ndarray, tc: np.ndarray) -> np.ndarray:
+    """x - level - slope tc per row, in one pass."""
+    out = np.empty_like(x)
+    for w in range(x.shape[0]):
+        for i in range(x.shape[1]):
+            out[w, i] = x[w, i] - level[w] - slope[w] * tc[i]
+    return out
+
+
 def _by_harmonics(f_bp: np.ndarray, n_harmonics: int, fs: float) -> dict[tuple, np.ndarray]:
     """Rows grouped by the harmonics below 0.45 fs that their f_bp allows."""
     groups: dict[tuple, list[int]] = {}
@@ -373,7 +407,7 @@ def _welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int) -> list[tup
     groups = []
     for length in np.unique(nper):
         rows = np.flatnonzero(nper == length)
-        groups.append((rows, *_welch(tuple(x[rows] for x in xs), fs, int(length))))
+        groups.append((rows, *_welch(tuple(_rows(x, rows) for x in xs), fs, int(length))))
     return groups
 
 
@@ -581,40 +615,41 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
     tc = (np.arange(n) - 0.5 * (n - 1)) / fs  # time from the middle of the trace
     speeds, at = np.unique(omega, return_inverse=True)  # a block's windows share one speed
     f_exp = np.array([expected_ball_pass_hz(float(o), bearing) for o in speeds])[at]
-    level0 = x.mean(axis=1)
-    slope0 = np.zeros(rows)
     tcc = tc - tc.mean()
     denom = float(np.sum(tcc * tcc))
-    if n >= 2 and denom > 0:
-        slope0 = np.sum(tcc * (x - level0[:, None]), axis=1) / denom
+    level0, slope0 = _line_fit(x, tcc, denom if n >= 2 and denom > 0 else 0.0)
     f_bp, peak_ratio = f_exp.copy(), np.ones(rows)
     if n >= 4:
-        detrended0 = x - level0[:, None] - slope0[:, None] * tc
+        detrended0 = _detrend(x, level0, slope0, tc)
         f_bp, peak_ratio = _find_ball_pass(detrended0, fs, f_exp, n_harmonics, search_rel)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
         if ks and n >= 8 * (2 + 4 * len(ks)):
-            f_bp[idx] = refine_frequency(x[idx], tc, f_bp[idx], list(ks), 0.5 / duration, fs)
+            f_bp[idx] = refine_frequency(_rows(x, idx), tc, f_bp[idx], list(ks), 0.5 / duration, fs)
     level, slope = np.zeros(rows), np.zeros(rows)
     coefficients = np.zeros((rows, n_harmonics), dtype=complex)
     residual = np.empty_like(x)
     n_fitted = np.zeros(rows, dtype=int)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
-        sol = None
+        sol, r = None, _rows(x, idx)
         if n >= 4 * (2 + 2 * len(ks)):
             factors = phasor_factors(tc, f_bp[idx])
-            eqs = harmonic_equations(tc, f_bp[idx], list(ks), x[idx], False, fs, factors)
+            eqs = harmonic_equations(tc, f_bp[idx], list(ks), r, False, fs, factors)
             sol = None if eqs is None else solve_normal(*eqs)
         if sol is None:
             design = harmonic_design(tc, f_bp[idx], list(ks), derivative=False)
-            sol = solve_rows(design, x[idx])[0]
-            residual[idx] = x[idx] - apply_design(design, sol)
+            sol = solve_rows(design, r)[0]
+            part = r - apply_design(design, sol)
         else:
-            residual[idx] = harmonic_residual(x[idx], tc, f_bp[idx], list(ks), sol, factors)
+            part = harmonic_residual(r, tc, f_bp[idx], list(ks), sol, factors)
+        if idx.size == rows:
+            residual = part
+        else:
+            residual[idx] = part
         level[idx], slope[idx] = sol[:, 0], sol[:, 1]
         for j, k in enumerate(ks):
             coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]
         n_fitted[idx] = len(ks)
-    detrended = x - level[:, None] - slope[:, None] * tc
+    detrended = _detrend(x, level, slope, tc)
     psd_f, psd, residual_psd = [None] * rows, [None] * rows, [None] * rows
     noise_density = np.empty((rows, n_harmonics))
     half = np.arange(1, n_harmonics + 1) - 0.5  # the band of harmonic k: (k -+ 0.5) f_bp
