@@ -118,10 +118,15 @@ def _pieces(rows: int, row_bytes: int) -> list[slice]:
 
 
 def _find_ball_pass(
-    x: np.ndarray, fs: float, f_exp: np.ndarray, n_harmonics: int, search_rel: float
+    x: np.ndarray,
+    line: tuple[np.ndarray, np.ndarray, np.ndarray],
+    fs: float,
+    f_exp: np.ndarray,
+    n_harmonics: int,
+    search_rel: float,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per row of ``x`` (detrended), f_bp maximising the summed power of its harmonics in the
-    zero-padded Hann spectrum of the sanity layer's
+    """Per row of ``x`` less its ``line`` (level, slope per row, times tc), f_bp maximising the
+    summed power of its harmonics in the zero-padded Hann spectrum of the sanity layer's
     :func:`~signatelec.measurement.ripple.padded_power` (bin width ``df``); the power |X|^2
     taken only at the bins the search reads (~70 of 20001 for 0.2 s at 50 kHz), rows of one
     expected f_bp together.
@@ -156,12 +161,12 @@ def _find_ball_pass(
         for part in range(0, rows.size, _PAD_ROWS):
             take = rows[part : part + _PAD_ROWS]
             if take.size >= _PAD_MIN_ROWS:
-                np.multiply(x[take], hann(n), out=padded[: take.size, :n])
+                _windowed(x, *line, hann(n), take, padded)
                 spectra = sfft.rfft(padded[: take.size], axis=1)
                 power[part : part + take.size] = np.abs(spectra[:, columns]) ** 2
                 continue
-            for i, w in enumerate(take):
-                np.multiply(x[w], hann(n), out=padded[0, :n])
+            for i in range(take.size):
+                _windowed(x, *line, hann(n), take[i : i + 1], padded)
                 power[part + i] = np.abs(sfft.rfft(padded[0])[columns]) ** 2
         found[rows], ratio[rows] = _search_peaks(
             power,
@@ -172,6 +177,17 @@ def _find_ball_pass(
             step,
         )
     return found, ratio
+
+
+@njit(cache=True, error_model="numpy")
+def _windowed(x, level, slope, tc, window, take, out) -> None:
+    """out[i, :n] = (x[w] - level[w] - slope[w] tc) window for the i-th row w of ``take``: the
+    detrended rows windowed into the padded buffer in one pass (the same numbers as the
+    detrended rows times the window)."""
+    for i in range(take.size):
+        w = take[i]
+        for j in range(x.shape[1]):
+            out[i, j] = (x[w, j] - level[w] - slope[w] * tc[j]) * window[j]
 
 
 @njit(cache=True, error_model="numpy")
@@ -620,8 +636,8 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
     level0, slope0 = _line_fit(x, tcc, denom if n >= 2 and denom > 0 else 0.0)
     f_bp, peak_ratio = f_exp.copy(), np.ones(rows)
     if n >= 4:
-        detrended0 = _detrend(x, level0, slope0, tc)
-        f_bp, peak_ratio = _find_ball_pass(detrended0, fs, f_exp, n_harmonics, search_rel)
+        line = (level0, slope0, tc)
+        f_bp, peak_ratio = _find_ball_pass(x, line, fs, f_exp, n_harmonics, search_rel)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
         if ks and n >= 8 * (2 + 4 * len(ks)):
             f_bp[idx] = refine_frequency(_rows(x, idx), tc, f_bp[idx], list(ks), 0.5 / duration, fs)
