@@ -30,6 +30,7 @@ from signatelec.estimation.harmonic_fit import (
     harmonic_design,
     harmonic_equations,
     harmonic_residual,
+    pairwise_sum,
     phasor_factors,
     refine_frequency,
     solve_normal,
@@ -314,41 +315,6 @@ def _segment_buffer(rows: int, segments: int, nper: int) -> np.ndarray:
         if buf.nbytes <= _SCRATCH_BYTES:
             _scratch.segments = buf
     return buf
-
-
-@njit(cache=True, error_model="numpy")
-def pairwise_sum(a: np.ndarray) -> float:
-    """np.add.reduce of a contiguous 1-D float array, as numpy adds it (the same bits): below
-    8 values one after the other, up to 128 in eight running sums then pairwise, beyond that
-    the two halves (cut at a multiple of 8) summed so and added."""
-    n = a.size
-    if n < 8:
-        s = -0.0
-        for i in range(n):
-            s += a[i]
-        return s
-    if n > 128:
-        half = n // 2
-        half -= half % 8
-        return pairwise_sum(a[:half]) + pairwise_sum(a[half:])
-    # eight running sums in registers (an array of them cost an allocation per call)
-    r0, r1, r2, r3, r4, r5, r6, r7 = a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]
-    i = 8
-    while i < n - n % 8:
-        r0 += a[i]
-        r1 += a[i + 1]
-        r2 += a[i + 2]
-        r3 += a[i + 3]
-        r4 += a[i + 4]
-        r5 += a[i + 5]
-        r6 += a[i + 6]
-        r7 += a[i + 7]
-        i += 8
-    s = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        s += a[i]
-        i += 1
-    return s
 
 
 @njit(cache=True, error_model="numpy")

@@ -22,6 +22,69 @@ from numba import njit
 _BLOCK = 1024
 
 
+@njit(cache=True, error_model="numpy")
+def pairwise_sum(a: np.ndarray) -> float:
+    """np.add.reduce of a contiguous 1-D float array, as numpy adds it (the same bits): below
+    8 values one after the other, up to 128 in eight running sums then pairwise, beyond that
+    the two halves (cut at a multiple of 8) summed so and added."""
+    n = a.size
+    if n < 8:
+        s = -0.0
+        for i in range(n):
+            s += a[i]
+        return s
+    if n > 128:
+        half = n // 2
+        half -= half % 8
+        return pairwise_sum(a[:half]) + pairwise_sum(a[half:])
+    # eight running sums in registers (an array of them cost an allocation per call)
+    r0, r1, r2, r3, r4, r5, r6, r7 = a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]
+    i = 8
+    while i < n - n % 8:
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+        i += 8
+    s = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        s += a[i]
+        i += 1
+    return s
+
+
+@njit(cache=True, error_model="numpy")
+def _row_sums(r: np.ndarray, tc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sum r, sum r tc) per row, numpy's sums (:func:`pairwise_sum`): the same numbers as
+    ``r.sum(axis=1)`` and ``(r * tc).sum(axis=1)``, without the product's temporary."""
+    rows, n = r.shape
+    total, moment = np.empty(rows), np.empty(rows)
+    product = np.empty(n)
+    for w in range(rows):
+        total[w] = pairwise_sum(r[w])
+        for i in range(n):
+            product[i] = r[w, i] * tc[i]
+        moment[w] = pairwise_sum(product)
+    return total, moment
+
+
+@njit(cache=True, error_model="numpy")
+def _centred(r: np.ndarray) -> np.ndarray:
+    """r less its mean per row in one pass: the same numbers as
+    ``r - r.mean(axis=1, keepdims=True)`` (numpy's sum, :func:`pairwise_sum`)."""
+    out = np.empty_like(r)
+    n = r.shape[1]
+    for w in range(r.shape[0]):
+        mean = pairwise_sum(r[w]) / n
+        for i in range(n):
+            out[w, i] = r[w, i] - mean
+    return out
+
+
 def _normal_equations(design: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """design design' and design r per row, summed over blocks of samples (design: rows,
     columns, samples)."""
@@ -274,9 +337,7 @@ def harmonic_equations(
     cos_s, sin_s = sums
     powers = _factor_powers(phasor_factors(tc, f) if factors is None else factors, kmax)
     rsums = _power_sums(*powers, r, tc)
-    return _assemble(
-        _columns(ks, derivative), cos_s, sin_s, rsums, r.sum(axis=1), (r * tc).sum(axis=1)
-    )
+    return _assemble(_columns(ks, derivative), cos_s, sin_s, rsums, *_row_sums(r, tc))
 
 
 @njit(cache=True, error_model="numpy")
@@ -351,7 +412,7 @@ def refine_frequency(
     m = 2 + 4 * len(ks)
     # the level (a column) taken out first: the residual sum of squares from the normal
     # equations then cancels only the ripple's power, not the level's
-    r = r - r.mean(axis=1, keepdims=True)
+    r = _centred(r)
     eqs = harmonic_equations(tc, f, ks, r, True, fs)
     sol = None if eqs is None else solve_normal(*eqs)
     if sol is None:
