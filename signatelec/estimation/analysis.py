@@ -410,12 +410,11 @@ def _detrend(x: np.ndarray, level: np.ndarray, slope: np.ndarray, tc: np.ndarray
 
 
 def _by_harmonics(f_bp: np.ndarray, n_harmonics: int, fs: float) -> dict[tuple, np.ndarray]:
-    """Rows grouped by the harmonics below 0.45 fs that their f_bp allows."""
-    groups: dict[tuple, list[int]] = {}
-    for w, f in enumerate(f_bp):
-        ks = tuple(k for k in range(1, n_harmonics + 1) if k * f < 0.45 * fs)
-        groups.setdefault(ks, []).append(w)
-    return {ks: np.asarray(rows) for ks, rows in groups.items()}
+    """Rows grouped by the harmonics below 0.45 fs that their f_bp allows: 1 to the count of
+    k with k f_bp < 0.45 fs (all of them when f_bp <= 0), all rows at once."""
+    below = np.arange(1, n_harmonics + 1) * f_bp[:, None] < 0.45 * fs
+    count = np.count_nonzero(below, axis=1)
+    return {tuple(range(1, int(c) + 1)): np.flatnonzero(count == c) for c in np.unique(count)}
 
 
 def _welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int) -> list[tuple]:
