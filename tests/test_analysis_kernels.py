@@ -16,19 +16,14 @@ import pytest
 from scipy import fft as sfft
 from scipy import signal
 
-from signatelec.estimation.analysis import (
-    _band_means,
-    _line_fit,
-    _welch_rows,
-    analyse_windows,
-    band_mean,
-)
+from signatelec.estimation.analysis import _band_means, _line_fit, analyse_windows, band_mean
 from signatelec.estimation.harmonic_fit import (
     _centred,
     _row_sums,
     pairwise_sum,
     phasor_factors,
 )
+from signatelec.estimation.window_spectra import welch_rows
 
 
 @pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 100, 128, 129, 255, 1000, 10000, 10001])
@@ -78,7 +73,7 @@ def test_welch_is_scipy_s_and_white_noise_s():
     x = sigma * rng.standard_normal((3, n))
     y = rng.standard_normal((3, n)) + np.sin(2 * np.pi * 1234.0 * np.arange(n) / fs)
     f_bp = np.array([409.7, 409.7, 300.0])  # two segment lengths: 488 and 667
-    groups = _welch_rows((x, y), fs, f_bp, 4)
+    groups = welch_rows((x, y), fs, f_bp, 4)
     assert [list(rows) for rows, _, _ in groups] == [[0, 1], [2]]
     for rows, freq, (px, py) in groups:
         nper = int(round(4 * fs / f_bp[rows[0]]))
