@@ -34,6 +34,8 @@ def test_pairwise_sum_is_numpy_s(n):
     rng = np.random.default_rng(n)
     a = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
     assert pairwise_sum(a) == np.add.reduce(a)
+    zeros = np.full(n, -0.0)  # the sign of a zero sum: +0, as numpy's
+    assert math.copysign(1.0, pairwise_sum(zeros)) == math.copysign(1.0, np.add.reduce(zeros))
     if n < 16:
         return
     x = rng.standard_normal((3, n)) * 10.0 ** rng.uniform(-3, 3, (3, 1)) + 5.0

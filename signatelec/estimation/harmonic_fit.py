@@ -24,12 +24,13 @@ _BLOCK = 1024
 
 @njit(cache=True, error_model="numpy")
 def pairwise_sum(a: np.ndarray) -> float:
-    """np.add.reduce of a contiguous 1-D float array, as numpy adds it (the same bits): below
-    8 values one after the other, up to 128 in eight running sums then pairwise, beyond that
-    the two halves (cut at a multiple of 8) summed so and added."""
+    """np.add.reduce of a contiguous 1-D float array, as numpy adds it (the same bits, the
+    sign of a zero sum included: numpy's starts from +0): below 8 values one after the other,
+    up to 128 in eight running sums then pairwise, beyond that the two halves (cut at a
+    multiple of 8) summed so and added."""
     n = a.size
     if n < 8:
-        s = -0.0
+        s = 0.0
         for i in range(n):
             s += a[i]
         return s
@@ -54,7 +55,7 @@ def pairwise_sum(a: np.ndarray) -> float:
     while i < n:
         s += a[i]
         i += 1
-    return s
+    return s + 0.0  # a sum of -0's is +0, as from numpy's start
 
 
 @njit(cache=True, error_model="numpy")
