@@ -17,12 +17,10 @@ from __future__ import annotations
 
 import functools
 import math
-import threading
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy import fft as sfft
 
 from signatelec.config.bearing import Bearing
 from signatelec.estimation.harmonic_fit import (
@@ -30,12 +28,18 @@ from signatelec.estimation.harmonic_fit import (
     harmonic_design,
     harmonic_equations,
     harmonic_residual,
+    pairwise_sum,
     phasor_factors,
     refine_frequency,
     solve_normal,
     solve_rows,
 )
-from signatelec.measurement.ripple import PAD, hann
+from signatelec.estimation.window_spectra import (
+    find_ball_pass,
+    sorted_select,
+    take_rows,
+    welch_rows,
+)
 from signatelec.measurement.traces import N_HARMONICS, SEARCH_REL
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
@@ -43,19 +47,6 @@ from signatelec.physics.kinematics import expected_ball_pass_hz
 PASSES_PER_SEGMENT = 4
 #: Phase bins of the folded raw trace.
 FOLD_BINS = 16
-#: Bytes of samples transformed at once: a block of windows is transformed in pieces that
-#: stay in the processor's cache (measured: the Welch segments of 10 windows at once cost ~2x
-#: the same in pieces of 256 kB, the fresh pages of large arrays faulted in on every block).
-_TRANSFORM_BYTES = 1 << 18
-#: Rows of the zero-padded search spectrum (:func:`_find_ball_pass`) transformed in one call.
-#: pocketfft vectorises a transform over rows (SIMD lanes across rows, the same operations
-#: per row, the same numbers): at 40000 points ~95 us a row from 5 rows at once up to 32,
-#: against ~170 us for one row alone (1-D) and 300-500 us for 2-4 rows of a 2-D call
-#: (measured, scipy 1.17, AVX-512).
-_PAD_ROWS = 16
-_PAD_MIN_ROWS = 5
-#: Largest padded buffer kept for the next call (a long trace's is not held).
-_SCRATCH_BYTES = 8 << 20
 #: Samples per block of the compiled sums (:func:`_statistics_pass`).
 _SUM_BLOCK = 128
 
@@ -110,121 +101,30 @@ def _as_trace(resistance_ohm) -> np.ndarray:
     return r
 
 
-def _pieces(rows: int, row_bytes: int) -> list[slice]:
-    """Slices of ``rows`` rows of ``row_bytes`` each whose transforms fit
-    :data:`_TRANSFORM_BYTES`."""
-    step = max(1, _TRANSFORM_BYTES // max(row_bytes, 1))
-    return [slice(i, i + step) for i in range(0, rows, step)]
-
-
-def _find_ball_pass(
-    x: np.ndarray, fs: float, f_exp: np.ndarray, n_harmonics: int, search_rel: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per row of ``x`` (detrended), f_bp maximising the summed power of its harmonics in the
-    zero-padded Hann spectrum of the sanity layer's
-    :func:`~signatelec.measurement.ripple.padded_power` (bin width ``df``); the power |X|^2
-    taken only at the bins the search reads (~70 of 20001 for 0.2 s at 50 kHz), rows of one
-    expected f_bp together.
-
-    Returns (frequencies, peak-to-median ratios of the harmonic sum over the search band);
-    rows whose expected f_bp is not > 0 keep it, with ratio 1. The sum over harmonics keeps
-    the search on f_bp where the first harmonic vanishes (comb zeros). The power between bins
-    is np.interp's straight line (the same operations, on a grid of unit step).
-    """
-    n = x.shape[1]
-    duration = n / fs
-    n_fft = sfft.next_fast_len(PAD * n, real=True)
-    df = fs / n_fft
-    last = n_fft // 2  # the transform's last bin: beyond it np.interp holds its value
-    found, ratio = np.array(f_exp, dtype=float), np.ones(len(f_exp))
-    padded = _padded_buffer(min(x.shape[0], _PAD_ROWS), n, n_fft)
-    for f0 in np.unique(f_exp[f_exp > 0.0]):
-        rows = np.flatnonzero(f_exp == f0)
-        step = min(1.0 / (8.0 * duration * n_harmonics), 1e-3 * f0)
-        lo, hi = f0 * (1.0 - search_rel), f0 * (1.0 + search_rel)
-        cand = np.arange(lo, hi + step, step)
-        oks, weights, columns = [], [], []
-        for k in range(1, n_harmonics + 1):
-            fk = k * cand
-            oks.append(fk < 0.5 * fs)
-            pos = fk[oks[-1]] / df
-            j = np.minimum(np.floor(pos).astype(int), last)
-            weights.append(pos - j)
-            columns += [j, np.minimum(j + 1, last)]
-        columns = np.concatenate(columns)
-        power = np.empty((rows.size, columns.size))
-        for part in range(0, rows.size, _PAD_ROWS):
-            take = rows[part : part + _PAD_ROWS]
-            if take.size >= _PAD_MIN_ROWS:
-                np.multiply(x[take], hann(n), out=padded[: take.size, :n])
-                spectra = sfft.rfft(padded[: take.size], axis=1)
-                power[part : part + take.size] = np.abs(spectra[:, columns]) ** 2
-                continue
-            for i, w in enumerate(take):
-                np.multiply(x[w], hann(n), out=padded[0, :n])
-                power[part + i] = np.abs(sfft.rfft(padded[0])[columns]) ** 2
-        total = np.zeros((rows.size, cand.size))
-        at = 0
-        for ok, weight in zip(oks, weights, strict=True):
-            m = weight.size
-            below, above = power[:, at : at + m], power[:, at + m : at + 2 * m]
-            total[:, ok] += (above - below) * weight + below
-            at += 2 * m
-        best = np.argmax(total, axis=1)
-        med = np.median(total, axis=1)
-        for w, i, m, tot in zip(rows, best, med, total, strict=True):
-            f = float(cand[i])
-            if 0 < i < cand.size - 1:
-                a, b, c = tot[i - 1], tot[i], tot[i + 1]
-                den = a - 2.0 * b + c
-                if den < 0.0:
-                    f += step * float(np.clip(0.5 * (a - c) / den, -0.5, 0.5))
-            found[w], ratio[w] = f, float(tot[i] / m) if m > 0 else 1.0
-    return found, ratio
-
-
-_scratch = threading.local()
-
-
-def _padded_buffer(rows: int, n: int, n_fft: int) -> np.ndarray:
-    """A (>= rows, n_fft) array whose columns from ``n`` on are 0, kept per thread for the next
-    block when at most :data:`_SCRATCH_BYTES`: a fresh one (3 MB for 10 windows of 0.2 s at
-    50 kHz) faulted its pages in on every block, ~1.5 ms of a block's ~10 ms (measured)."""
-    buf, filled = getattr(_scratch, "padded", None), getattr(_scratch, "filled", 0)
-    if buf is None or buf.shape[0] < rows or buf.shape[1] != n_fft:
-        buf, filled = np.zeros((rows, n_fft)), 0
-    elif filled > n:
-        buf[:, n:filled] = 0.0
-    if buf.nbytes <= _SCRATCH_BYTES:
-        _scratch.padded, _scratch.filled = buf, n
-    return buf
-
-
 @functools.lru_cache(maxsize=4)
-def _periodic_hann(n: int) -> np.ndarray:
-    """The periodic Hann window of ``n`` points (np.hanning(n + 1) less its last point), kept
-    as :func:`~signatelec.measurement.ripple.hann` is (read-only)."""
-    window = np.hanning(n + 1)[:-1] if n > 1 else np.ones(1)
-    window.flags.writeable = False
-    return window
+def _sample_times(n: int, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """(times from the first sample, times from the middle tc, tc less its mean, the sum of
+    its squares) of ``n`` samples at ``fs``, read-only, kept for the next block of the same
+    length (~0.06 ms a block to form)."""
+    t0 = np.arange(n) / fs
+    tc = (np.arange(n) - 0.5 * (n - 1)) / fs
+    tcc = tc - tc.mean()
+    for a in (t0, tc, tcc):
+        a.flags.writeable = False
+    return t0, tc, tcc, float(np.sum(tcc * tcc))
 
 
-def _welch(x: np.ndarray, fs: float, nper: int) -> tuple[np.ndarray, np.ndarray]:
-    """One-sided Welch density (Hann, half overlap) of each row, segments of ``nper`` samples
-    (:func:`_welch_rows`: ``passes`` ball passes).
-
-    The same estimate as ``scipy.signal.welch(..., detrend=False)``, with the segments
-    transformed in batches of rows (a 1 s trace at 50 kHz has ~200 of them).
-    """
-    step = max(nper // 2, 1)
-    win = _periodic_hann(nper)
-    seg = np.lib.stride_tricks.sliding_window_view(x, nper, axis=1)[:, ::step]
-    p = np.empty((x.shape[0], nper // 2 + 1))
-    for part in _pieces(x.shape[0], seg.shape[1] * nper * 8):
-        p[part] = np.mean(np.abs(sfft.rfft(seg[part] * win, axis=2)) ** 2, axis=1)
-    p /= fs * float(win @ win)
-    p[:, 1 : (None if nper % 2 else -1)] *= 2.0
-    return sfft.rfftfreq(nper, 1.0 / fs), p
+@njit(cache=True, error_model="numpy")
+def _band_means(f: np.ndarray, p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """:func:`band_mean` of each row of ``p`` (over ``f``) in the bands [lo, hi) of its row
+    (rows, bands), compiled; NaN where no bin is in a band (the caller interpolates there)."""
+    out = np.empty(lo.shape)
+    for w in range(lo.shape[0]):
+        for b in range(lo.shape[1]):
+            i = np.searchsorted(f, lo[w, b])
+            j = np.searchsorted(f, hi[w, b])
+            out[w, b] = pairwise_sum(p[w, i:j]) / (j - i) if j > i else np.nan
+    return out
 
 
 def band_mean(f: np.ndarray, p: np.ndarray, lo: float, hi: float) -> float:
@@ -272,26 +172,40 @@ def analyse_trace(
     return _analyse(r[None], fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)[0]
 
 
-def _by_harmonics(f_bp: np.ndarray, n_harmonics: int, fs: float) -> dict[tuple, np.ndarray]:
-    """Rows grouped by the harmonics below 0.45 fs that their f_bp allows."""
-    groups: dict[tuple, list[int]] = {}
-    for w, f in enumerate(f_bp):
-        ks = tuple(k for k in range(1, n_harmonics + 1) if k * f < 0.45 * fs)
-        groups.setdefault(ks, []).append(w)
-    return {ks: np.asarray(rows) for ks, rows in groups.items()}
+@njit(cache=True, error_model="numpy")
+def _line_fit(x: np.ndarray, tcc: np.ndarray, denom: float) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, least-squares slope against the centred times ``tcc``) per row; the slope 0 when
+    ``denom`` (sum tcc^2) is 0. numpy's sums (:func:`pairwise_sum`): the same numbers as
+    ``x.mean(axis=1)`` and ``np.sum(tcc * (x - mean), axis=1) / denom``, without the
+    temporaries."""
+    rows, n = x.shape
+    level, slope = np.empty(rows), np.zeros(rows)
+    centred = np.empty(n)
+    for w in range(rows):
+        level[w] = pairwise_sum(x[w]) / n
+        if denom > 0.0:
+            for i in range(n):
+                centred[i] = tcc[i] * (x[w, i] - level[w])
+            slope[w] = pairwise_sum(centred) / denom
+    return level, slope
 
 
-def _welch_rows(x: np.ndarray, fs: float, f_bp: np.ndarray, passes: int) -> list[tuple]:
-    """(freq, density) of each row by :func:`_welch`, rows of one segment length together."""
-    n = x.shape[1]
-    nper = [max(1, min(int(round(passes * fs / f)) if f > 0 else n, n)) for f in f_bp]
-    out: list = [None] * len(nper)
-    for length in set(nper):
-        rows = [w for w, v in enumerate(nper) if v == length]
-        freq, p = _welch(x[rows], fs, length)
-        for i, w in enumerate(rows):
-            out[w] = (freq, p[i])
+@njit(cache=True, error_model="numpy")
+def _detrend(x: np.ndarray, level: np.ndarray, slope: np.ndarray, tc: np.ndarray) -> np.ndarray:
+    """x - level - slope tc per row, in one pass."""
+    out = np.empty_like(x)
+    for w in range(x.shape[0]):
+        for i in range(x.shape[1]):
+            out[w, i] = x[w, i] - level[w] - slope[w] * tc[i]
     return out
+
+
+def _by_harmonics(f_bp: np.ndarray, n_harmonics: int, fs: float) -> dict[tuple, np.ndarray]:
+    """Rows grouped by the harmonics below 0.45 fs that their f_bp allows: 1 to the count of
+    k with k f_bp < 0.45 fs (all of them when f_bp <= 0), all rows at once."""
+    below = np.arange(1, n_harmonics + 1) * f_bp[:, None] < 0.45 * fs
+    count = np.count_nonzero(below, axis=1)
+    return {tuple(range(1, int(c) + 1)): np.flatnonzero(count == c) for c in np.unique(count)}
 
 
 #: The statistics of :func:`_row_statistics`, in the order of :func:`_statistics_pass`'s columns.
@@ -308,22 +222,6 @@ STATISTICS = (
     "raw_skew",
     "raw_kurtosis",
 )
-
-
-@njit(cache=True, error_model="numpy")
-def _sorted_select(s: np.ndarray, q: float) -> float:
-    """np.percentile (linear) of ``s`` sorted, ``q`` in [0, 1]: numpy's interpolation (from
-    the nearer neighbour when the weight exceeds 1/2); q = 1/2 is np.median's value."""
-    n = s.size
-    if q == 0.5:
-        h = n // 2
-        return s[h] if n % 2 else (s[h - 1] + s[h]) / 2.0
-    v = q * (n - 1)
-    i = int(math.floor(v))
-    j = min(i + 1, n - 1)
-    g = v - i
-    a, b = s[i], s[j]
-    return b - (b - a) * (1.0 - g) if g >= 0.5 else a + (b - a) * g
 
 
 @njit(cache=True, error_model="numpy")
@@ -367,13 +265,14 @@ def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
     values = np.zeros((rows, 11))
     counts = np.zeros((rows, FOLD_BINS), np.int64)
     sums = np.zeros((rows, FOLD_BINS))
+    bins = np.empty(n, np.int64)
     for w in range(rows):
-        med = _sorted_select(det_sorted[w], 0.5)
-        e_med = _sorted_select(res_sorted[w], 0.5)
+        med = sorted_select(det_sorted[w], 0.5)
+        e_med = sorted_select(res_sorted[w], 0.5)
         values[w, 0] = med
         values[w, 1] = _sorted_mad(det_sorted[w], med)
-        values[w, 2] = _sorted_select(det_sorted[w], 0.75)
-        values[w, 3] = _sorted_select(det_sorted[w], 0.25)
+        values[w, 2] = sorted_select(det_sorted[w], 0.75)
+        values[w, 3] = sorted_select(det_sorted[w], 0.25)
         values[w, 5] = _sorted_mad(res_sorted[w], e_med)
         s_e = s_d = s_e2 = s_e4 = s_de = 0.0
         for lo in range(0, n, _SUM_BLOCK):
@@ -426,9 +325,19 @@ def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
         if n >= FOLD_BINS:
             for i in range(n):
                 cycles = t[i] * f_bp[w]
-                b = int(math.floor((cycles - math.floor(cycles)) * FOLD_BINS)) % FOLD_BINS
-                counts[w, b] += 1
-                sums[w, b] += det[w, i]
+                bins[i] = int(math.floor((cycles - math.floor(cycles)) * FOLD_BINS)) % FOLD_BINS
+            # a bin's samples come in runs (~fs / (f_bp FOLD_BINS) of them): each run is
+            # added to the bin's total in a register, in the samples' order (the same sums as
+            # one sample at a time into the array, ~3x faster)
+            i = 0
+            while i < n:
+                b, run, total = bins[i], 0, sums[w, bins[i]]
+                while i < n and bins[i] == b:
+                    total += det[w, i]
+                    run += 1
+                    i += 1
+                sums[w, b] = total
+                counts[w, b] += run
     return values, counts, sums
 
 
@@ -444,7 +353,7 @@ def _row_statistics(detrended: np.ndarray, residual: np.ndarray, fs: float, f_bp
         residual,
         np.sort(detrended, axis=1),
         np.sort(residual, axis=1),
-        np.arange(n) / fs,
+        _sample_times(n, fs)[0],
         f,
     )
     out = [dict(zip(STATISTICS, map(float, values[w]), strict=True)) for w in range(rows)]
@@ -484,56 +393,63 @@ def analyse_windows(
 def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment):
     rows, n = x.shape
     duration = n / fs
-    tc = (np.arange(n) - 0.5 * (n - 1)) / fs  # time from the middle of the trace
-    speeds, at = np.unique(omega, return_inverse=True)  # a block's windows share one speed
+    _, tc, tcc, denom = _sample_times(n, fs)
+    if np.all(omega == omega[0]):  # a block's windows share one speed
+        speeds, at = omega[:1], np.zeros(rows, dtype=int)
+    else:
+        speeds, at = np.unique(omega, return_inverse=True)
     f_exp = np.array([expected_ball_pass_hz(float(o), bearing) for o in speeds])[at]
-    level0 = x.mean(axis=1)
-    slope0 = np.zeros(rows)
-    tcc = tc - tc.mean()
-    denom = float(np.sum(tcc * tcc))
-    if n >= 2 and denom > 0:
-        slope0 = np.sum(tcc * (x - level0[:, None]), axis=1) / denom
+    level0, slope0 = _line_fit(x, tcc, denom if n >= 2 and denom > 0 else 0.0)
     f_bp, peak_ratio = f_exp.copy(), np.ones(rows)
     if n >= 4:
-        detrended0 = x - level0[:, None] - slope0[:, None] * tc
-        f_bp, peak_ratio = _find_ball_pass(detrended0, fs, f_exp, n_harmonics, search_rel)
+        line = (level0, slope0, tc)
+        f_bp, peak_ratio = find_ball_pass(x, line, fs, f_exp, n_harmonics, search_rel)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
         if ks and n >= 8 * (2 + 4 * len(ks)):
-            f_bp[idx] = refine_frequency(x[idx], tc, f_bp[idx], list(ks), 0.5 / duration, fs)
+            f_bp[idx] = refine_frequency(
+                take_rows(x, idx), tc, f_bp[idx], list(ks), 0.5 / duration, fs
+            )
     level, slope = np.zeros(rows), np.zeros(rows)
     coefficients = np.zeros((rows, n_harmonics), dtype=complex)
     residual = np.empty_like(x)
     n_fitted = np.zeros(rows, dtype=int)
     for ks, idx in _by_harmonics(f_bp, n_harmonics, fs).items():
-        sol = None
+        sol, r = None, take_rows(x, idx)
         if n >= 4 * (2 + 2 * len(ks)):
             factors = phasor_factors(tc, f_bp[idx])
-            eqs = harmonic_equations(tc, f_bp[idx], list(ks), x[idx], False, fs, factors)
+            eqs = harmonic_equations(tc, f_bp[idx], list(ks), r, False, fs, factors)
             sol = None if eqs is None else solve_normal(*eqs)
         if sol is None:
             design = harmonic_design(tc, f_bp[idx], list(ks), derivative=False)
-            sol = solve_rows(design, x[idx])[0]
-            residual[idx] = x[idx] - apply_design(design, sol)
+            sol = solve_rows(design, r)[0]
+            part = r - apply_design(design, sol)
         else:
-            residual[idx] = harmonic_residual(x[idx], tc, f_bp[idx], list(ks), sol, factors)
+            part = harmonic_residual(r, tc, f_bp[idx], list(ks), sol, factors)
+        if idx.size == rows:
+            residual = part
+        else:
+            residual[idx] = part
         level[idx], slope[idx] = sol[:, 0], sol[:, 1]
         for j, k in enumerate(ks):
             coefficients[idx, k - 1] = sol[:, 2 + 2 * j] - 1j * sol[:, 3 + 2 * j]
         n_fitted[idx] = len(ks)
-    detrended = x - level[:, None] - slope[:, None] * tc
-    spectra = _welch_rows(detrended, fs, f_bp, passes_per_segment)
-    residual_spectra = _welch_rows(residual, fs, f_bp, passes_per_segment)
+    detrended = _detrend(x, level, slope, tc)
+    psd_f, psd, residual_psd = [None] * rows, [None] * rows, [None] * rows
+    noise_density = np.empty((rows, n_harmonics))
+    half = np.arange(1, n_harmonics + 1) - 0.5  # the band of harmonic k: (k -+ 0.5) f_bp
+    for idx, freq, (p, p_res) in welch_rows((detrended, residual), fs, f_bp, passes_per_segment):
+        lo, hi = half * f_bp[idx, None], (half + 1.0) * f_bp[idx, None]
+        noise_density[idx] = _band_means(freq, p_res, lo, hi)
+        for i, w in enumerate(idx):
+            psd_f[w], psd[w], residual_psd[w] = freq, p[i], p_res[i]
+    for w, j in np.argwhere(np.isnan(noise_density)):  # bands without a bin
+        k = j + 1
+        noise_density[w, j] = band_mean(
+            psd_f[w], residual_psd[w], (k - 0.5) * f_bp[w], (k + 0.5) * f_bp[w]
+        )
     stats = _row_statistics(detrended, residual, fs, f_bp)
     out = []
     for w in range(rows):
-        psd_f, psd = spectra[w]
-        res_psd = residual_spectra[w][1]
-        noise_density = np.array(
-            [
-                band_mean(psd_f, res_psd, (k - 0.5) * f_bp[w], (k + 0.5) * f_bp[w])
-                for k in range(1, n_harmonics + 1)
-            ]
-        )
         out.append(
             TraceAnalysis(
                 sample_rate_hz=fs,
@@ -546,12 +462,12 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
                 ball_pass_hz=float(f_bp[w]),
                 search_peak_ratio=float(peak_ratio[w]),
                 coefficients=coefficients[w],
-                noise_density=noise_density,
+                noise_density=noise_density[w],
                 residual=residual[w],
                 detrended=detrended[w],
-                psd_freq_hz=psd_f,
-                psd=psd,
-                residual_psd=res_psd,
+                psd_freq_hz=psd_f[w],
+                psd=psd[w],
+                residual_psd=residual_psd[w],
                 n_fitted=int(n_fitted[w]),
                 statistics=stats[w],
             )
