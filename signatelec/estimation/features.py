@@ -69,6 +69,7 @@ from signatelec.estimation.analysis import (
     band_power,
     debiased_amplitudes,
 )
+from signatelec.estimation.harmonic_fit import pairwise_sum
 from signatelec.measurement.traces import N_HARMONICS
 
 #: Bumped whenever a feature changes meaning: models trained on other features are refused.
@@ -83,48 +84,20 @@ _IQR_TO_SIGMA = 1.0 / 1.349
 
 
 @njit(cache=True, error_model="numpy")
-def _pairwise_sum(a: np.ndarray) -> float:
-    """np.sum of a contiguous 1-D array, as numpy adds it: below 8 values one after the other;
-    up to 128 in eight running sums, then pairwise; a longer one as two halves (the first a
-    multiple of 8 long) summed apart. The same bits."""
-    n = a.size
-    if n < 8:
-        s = 0.0
-        for i in range(n):
-            s += a[i]
-        return s
-    if n > 128:
-        half = n // 2
-        half -= half % 8
-        return _pairwise_sum(a[:half]) + _pairwise_sum(a[half:])
-    r = a[:8].copy()
-    i = 8
-    while i < n - n % 8:
-        for j in range(8):
-            r[j] += a[i + j]
-        i += 8
-    s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-    while i < n:
-        s += a[i]
-        i += 1
-    return s
-
-
-@njit(cache=True, error_model="numpy")
 def shape_stats(w: np.ndarray) -> tuple[float, float, float, float]:
     """(crest, skewness, excess kurtosis, asymmetry) of a zero-mean contiguous waveform; (1, 0,
     0, 0) for a flat one. Compiled (the numpy expression cost ~17 us on 64 points, mostly
-    calls), numpy's sums kept (:func:`_pairwise_sum`)."""
+    calls), numpy's sums kept (:func:`pairwise_sum`)."""
     n = w.size
     w2 = w * w
-    var = _pairwise_sum(w2) / n
+    var = pairwise_sum(w2) / n
     flat = var <= 0.0
     var_s = 1.0 if flat else var
     sd = math.sqrt(var_s)
     wmax, wmin = w.max(), w.min()
     crest = 1.0 if flat else max(wmax, -wmin) / sd
-    skew = 0.0 if flat else _pairwise_sum(w2 * w) / n / sd**3.0
-    kurt = 0.0 if flat else _pairwise_sum(w2 * w2) / n / var_s**2.0 - 3.0
+    skew = 0.0 if flat else pairwise_sum(w2 * w) / n / sd**3.0
+    kurt = 0.0 if flat else pairwise_sum(w2 * w2) / n / var_s**2.0 - 3.0
     span = wmax - wmin if wmax > wmin else 1.0
     asym = 0.0 if (flat or wmax <= wmin) else (wmax + wmin) / span
     return crest, skew, kurt, asym
@@ -143,7 +116,7 @@ def _band_means(f, p, start, lo, hi) -> np.ndarray:
         for b in range(bands):
             i = np.searchsorted(fw, lo[w, b])
             j = np.searchsorted(fw, hi[w, b])
-            out[w, b] = _pairwise_sum(pw[i:j]) / (j - i) if j > i else np.nan
+            out[w, b] = pairwise_sum(pw[i:j]) / (j - i) if j > i else np.nan
     return out
 
 
@@ -161,7 +134,7 @@ def _shapes(waveforms, fold_counts, fold_sums) -> np.ndarray:
         means = fold_sums[r][ok] / fold_counts[r][ok]
         fold_p2p, fold_skew = 0.0, 0.0
         if means.size:
-            means = means - _pairwise_sum(means) / means.size
+            means = means - pairwise_sum(means) / means.size
             fold_p2p = means.max() - means.min()
             fold_skew = shape_stats(means)[1]
         out[r] = crest, skew, kurt, asym, w.max() - w.min(), fold_p2p, fold_skew
