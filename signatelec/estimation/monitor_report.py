@@ -40,8 +40,57 @@ def _clean(value):
     return value
 
 
-def summary_of(table, settings, stretches, changes, alarms, extra: dict) -> dict:
+def qualify(stretches: list[dict], windows: pd.DataFrame, ranges: dict | None = None) -> list:
+    """Mark, in place, each stretch whose windows cannot carry a confident answer: its
+    ``warnings`` (what ``estimate`` warns of for one trace: no ball-pass line, so the speed is
+    unchecked and no regime call is confident; a speed outside the model's training range,
+    an extrapolation; features as atypical as the 1 % most atypical training traces) and
+    ``regime_confident`` (the regime probability at least
+    :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). Returns
+    the warnings as notes naming their stretch."""
+    from signatelec.estimation.domain import WARN_SCORE
+    from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
+
+    lo, hi = (ranges or {}).get("omega_rad_s", (None, None))
+    ok = windows[windows["status"] == "ok"] if "status" in windows else windows
+    notes = []
+    for s in stretches:
+        inside = ok[(ok["start_s"] >= s["start_s"] - 1e-9) & (ok["end_s"] <= s["end_s"] + 1e-9)]
+        warnings = []
+        if len(inside):
+            if (inside["ripple"] == "none").mean() >= 0.5:
+                warnings.append(
+                    "no ball-pass line in most of its windows: the speed is unchecked and no "
+                    "regime call is confident (a trace without ripple, or a state at a zero of "
+                    "the ripple's first harmonic)"
+                )
+            omega = float(inside["omega_rad_s"].median())
+            if lo is not None and not lo <= omega <= hi:
+                warnings.append(
+                    f"omega {omega:g} rad/s is outside the training range {lo:.0f}-{hi:.0f} "
+                    "rad/s: extrapolating, the interval does not cover the model's error there"
+                )
+            score = float(inside["in_domain_score"].median())
+            if score < WARN_SCORE:
+                warnings.append(
+                    f"median in-domain score {score:.2g} (below {WARN_SCORE:g}): the windows are "
+                    "unlike the training traces, the answer is an extrapolation"
+                )
+        s["warnings"] = warnings
+        s["regime_confident"] = bool(
+            not warnings and (s.get("regime_probability") or 0.0) >= CONFIDENT_PROBABILITY
+        )
+        notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
+    return notes
+
+
+def summary_of(
+    table, settings, stretches, changes, alarms, extra: dict, ranges: dict | None = None
+) -> dict:
+    """The content of ``summary.json``; ``ranges``: the model's training ranges
+    (``info["ranges"]``), against which the stretches are qualified (:func:`qualify`)."""
     windows = table.frame()
+    notes = list(table.notes) + qualify(stretches, windows, ranges)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]
     return _clean(
@@ -66,7 +115,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict) -> dict
                 "track_speed": settings.track_speed,
                 **extra,
             },
-            "notes": list(table.notes),
+            "notes": notes,
             "analysis_cpu_s": table.cpu_s,
             "stretches": stretches,
             "changes": changes,
@@ -217,6 +266,7 @@ def format_summary(summary: dict) -> str:
             f"[{s['radial_load_n_low']:.0f}, {s['radial_load_n_high']:.0f}]  epsilon "
             f"{s['epsilon']:.3f}  clearance {s['clearance_m'] * 1e6:+.1f} um  {s['regime']} "
             f"({s['regime_probability']:.2f})"
+            + ("" if s.get("regime_confident", True) else ", not confident")
         )
     for a in summary["alarms"]:
         lines.append(
