@@ -115,7 +115,7 @@ def test_speed_beyond_the_sampling_named_before_gaps():
     assert f"{minimum_sample_rate_hz(1e9):.4g} Hz needed" in str(info.value)
 
 
-def _windows(n, hop, window, seed=0, ripple="found", omega=OMEGA, shift_at=None):
+def _windows(n, hop, window, seed=0, ripple="found", omega=OMEGA, shift_at=None, snr=100.0):
     """A window table of one state whose features are window means of white sample noise, so
     that overlapping windows share their samples as on a trace (``shift_at``: index of the
     window from which F_r and the level step up by 10 %)."""
@@ -146,6 +146,7 @@ def _windows(n, hop, window, seed=0, ripple="found", omega=OMEGA, shift_at=None)
             "epsilon_high": 0.55 + 0.01 * means[2],
             "h1_rel": 1e-3 * (1 + 0.05 * means[3]),
             "h2_rel": np.full(n, 1e-4),
+            "harmonic_snr": snr,
             "regime_probability_zero": 0.9,
             "regime_probability_preload": 0.1,
         }
@@ -172,18 +173,21 @@ def test_non_overlapping_windows_kept():
 
 
 @pytest.mark.parametrize(
-    ("ripple", "omega", "warned"),
+    ("ripple", "snr", "omega", "warned"),
     [
-        ("found", OMEGA, None),
-        ("none", OMEGA, "no ball-pass line"),
-        ("found", 1000.0, "outside the training range 250-750"),
+        ("found", 100.0, OMEGA, None),
+        ("none", 100.0, OMEGA, "no ball-pass line"),
+        ("found", 2.0, OMEGA, "no ball-pass line"),
+        ("found", 100.0, 1000.0, "outside the training range 250-750"),
     ],
 )
-def test_stretch_qualified(ripple, omega, warned):
-    """A stretch of windows without a ball-pass line (a trace of white noise at a bearing's
-    level was a stretch of regime probability 1.00) or at a speed outside the model's
-    training range is not a confident regime call, and the summary's notes say why."""
-    table = _windows(100, 0.2, 0.2, ripple=ripple, omega=omega)
+def test_stretch_qualified(ripple, snr, omega, warned):
+    """A stretch of windows without a ball-pass line (the screen's, or the window's harmonics
+    at its speed below 5 sigma: a trace of white noise at a bearing's level, or a speed column
+    3 % off between two screens, was a stretch of regime probability 1.00) or at a speed
+    outside the model's training range is not a confident regime call, and the summary's
+    notes say why."""
+    table = _windows(100, 0.2, 0.2, ripple=ripple, omega=omega, snr=snr)
     stretches, _, _ = stretches_and_changes(table, 0.2)
     notes = qualify(stretches, table, {"omega_rad_s": (250.0, 750.0)})
     (stretch,) = stretches

@@ -71,6 +71,7 @@ KEPT_FEATURES = (
     "h2_rel",
     "h2_even_rel",
     "ball_pass_found_hz",
+    "harmonic_snr",
 )
 #: Most windows a sample may belong to (--window / --hop): a block's windows are analysed
 #: together, so its memory grows with this ratio: peak 0.46, 0.62, 0.91 GB at 1, 20, 50 on a
