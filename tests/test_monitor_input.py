@@ -19,7 +19,7 @@ import pytest
 from signatelec.cli.common import signals_deferred
 from signatelec.estimation.evidence import non_overlapping, stretches_and_changes
 from signatelec.estimation.monitor import MAX_OVERLAP, MonitorSettings, monitor_trace
-from signatelec.estimation.monitor_report import qualify
+from signatelec.estimation.monitor_report import qualify, qualify_alarms
 from signatelec.measurement.stream import read_chunks
 from signatelec.measurement.traces import TraceError, minimum_sample_rate_hz, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
@@ -246,3 +246,16 @@ def test_time_in_milliseconds_named(tmp_path):
     message = _refused(path, omega_rad_s=OMEGA)
     assert message.startswith("--window 0.2: 4.0 samples at 20 Hz")
     assert "is --time-column 'time_s' in seconds?" in message
+
+
+def test_alarm_into_a_stretch_without_line_not_confident():
+    """A 10 % load step into windows whose harmonics vanish at their speed (a speed column gone
+    wrong): the alarm is raised, marked not confident; the step between two clean stretches
+    stays confident."""
+    for snr, confident in ((100.0, True), (np.r_[np.full(150, 100.0), np.full(150, 2.0)], False)):
+        table = _windows(300, 0.2, 0.2, seed=3, shift_at=150, snr=snr)
+        stretches, _, alarms = stretches_and_changes(table, 0.2)
+        qualify(stretches, table)
+        qualify_alarms(alarms, stretches)
+        assert [a["kind"] for a in alarms] == ["load"]
+        assert alarms[0]["confident"] is confident

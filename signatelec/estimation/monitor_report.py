@@ -91,6 +91,18 @@ def qualify(stretches: list[dict], windows: pd.DataFrame, ranges: dict | None = 
     return notes
 
 
+def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
+    """Mark, in place, each alarm ``confident`` when neither stretch it joins carries a warning
+    (:func:`qualify`): a regime alarm into a stretch without a ball-pass line is no finding."""
+    for a in alarms:
+        near = [
+            s
+            for s in stretches
+            if abs(s["start_s"] - a["time_s"]) < 1e-9 or abs(s["end_s"] - a["time_s"]) < 1e-9
+        ]
+        a["confident"] = not any(s.get("warnings") for s in near)
+
+
 def summary_of(
     table, settings, stretches, changes, alarms, extra: dict, ranges: dict | None = None
 ) -> dict:
@@ -98,6 +110,7 @@ def summary_of(
     (``info["ranges"]``), against which the stretches are qualified (:func:`qualify`)."""
     windows = table.frame()
     notes = list(table.notes) + qualify(stretches, windows, ranges)
+    qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]
     return _clean(
@@ -278,5 +291,6 @@ def format_summary(summary: dict) -> str:
     for a in summary["alarms"]:
         lines.append(
             f"alarm at {a['time_s']:.3f} s: {a['what']} (probability {a['probability']:.3f})"
+            + ("" if a.get("confident", True) else "; not confident: see the notes")
         )
     return "\n".join(lines)
