@@ -232,7 +232,8 @@ def test_settings_refused_as_by_the_command():
     for settings, named in (
         (MonitorSettings(omega_rad_s=OMEGA, speed_column="speed"), "give the speed one way"),
         (MonitorSettings(speed_column="speed", track_speed=True), "--track-speed"),
-        (MonitorSettings(omega_rad_s=OMEGA, follow_idle_s=0.0), "--idle 0.0"),
+        (MonitorSettings(omega_rad_s=OMEGA, follow=True, follow_idle_s=0.0), "--idle 0.0"),
+        (MonitorSettings(omega_rad_s=OMEGA, follow_idle_s=1.0), "give --follow too"),
     ):
         with pytest.raises(TraceError, match=named):
             settings.check()

@@ -113,6 +113,8 @@ class MonitorSettings:
             raise TraceError("--track-speed starts from --omega RAD_S; give it")
         if s.follow_idle_s is not None and not s.follow_idle_s > 0:
             raise TraceError(f"--idle {s.follow_idle_s!r}: must be > 0 s")
+        if s.follow_idle_s is not None and not s.follow:
+            raise TraceError(f"--idle {s.follow_idle_s!r}: ends --follow; give --follow too")
         for name, value in (("--window", s.window_s), ("--hop", s.hop)):
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise TraceError(f"{name} {value!r}: must be a duration > 0 s")
