@@ -10,6 +10,7 @@ from signatelec.cli.common import (
     InputError,
     check_writable_file,
     cli,
+    signals_deferred,
 )
 
 
@@ -214,30 +215,29 @@ def monitor(
     and DIR/monitor.png.
     """
     from signatelec.cli.common import claim_output, write_output
-    from signatelec.estimation.evidence import stretches_and_changes
+    from signatelec.estimation.evidence import check_settings, stretches_and_changes
     from signatelec.estimation.monitor import MonitorSettings, monitor_trace
-    from signatelec.estimation.monitor_report import (
-        COMMAND,
-        format_summary,
-        summary_of,
-        write_monitor,
-    )
+    from signatelec.estimation.monitor_report import COMMAND, summary_of, write_monitor
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.io import input_size_problem
     from signatelec.measurement.traces import TraceError
 
-    if (omega_rad_s is None) == (speed_column is None):
-        raise InputError("give the speed one way: --omega RAD_S or --speed-column NAME")
-    if track_speed and omega_rad_s is None:
-        raise InputError("--track-speed starts from --omega RAD_S; give it")
-    for name, value, lo, hi in (
-        ("--false-alarm-rate", false_alarm_rate, 0.0, 3600.0),
-        ("--load-threshold", load_threshold, 0.0, 10.0),
-    ):
-        if not lo < value <= hi:
-            raise InputError(f"{name} {value!r}: must be in ({lo:g}, {hi:g}]")
-    if idle_s is not None and not idle_s > 0:
-        raise InputError(f"--idle {idle_s!r}: must be > 0 s")
+    settings = MonitorSettings(
+        omega_rad_s=omega_rad_s,
+        speed_column=speed_column,
+        track_speed=track_speed,
+        window_s=window_s,
+        hop_s=hop_s,
+        time_column=time_column,
+        resistance_column=resistance_column,
+        follow=follow,
+        follow_idle_s=idle_s,
+    )
+    try:  # TraceError is a ValueError: the Python functions refuse with the same line
+        settings.check()
+        check_settings(settings.hop, false_alarm_rate, load_threshold)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
     problem = input_size_problem(trace_file, 1 << 62)
     if problem:
         raise InputError(f"trace {trace_file!r}: {problem}")
@@ -250,17 +250,6 @@ def monitor(
         )
     except ModelError as exc:
         raise InputError(str(exc)) from None
-    settings = MonitorSettings(
-        omega_rad_s=omega_rad_s,
-        speed_column=speed_column,
-        track_speed=track_speed,
-        window_s=window_s,
-        hop_s=hop_s,
-        time_column=time_column,
-        resistance_column=resistance_column,
-        follow=follow,
-        follow_idle_s=idle_s,
-    )
     progress = None if quiet else _progress_printer(trace_file)
     try:
         table = monitor_trace(trace_file, model, settings, progress=progress)
@@ -271,9 +260,21 @@ def monitor(
         windows, settings.hop, false_alarm_rate, load_threshold
     )
     extra = {"false_alarm_rate_per_hour": false_alarm_rate, "load_threshold": load_threshold}
-    summary = summary_of(table, settings, stretches, changes, alarms, extra)
+    summary = summary_of(
+        table, settings, stretches, changes, alarms, extra, model.info.get("ranges")
+    )
     write_output(lambda: write_monitor(out, windows, summary))
-    if table.interrupted and not quiet:
+    # the output is in place and complete: a Ctrl-C from here on would only make exit code 130
+    # ("interrupted", as if nothing had been written) of a run that finished
+    with signals_deferred():
+        _report(out, windows, summary, table.interrupted, quiet)
+
+
+def _report(out, windows, summary, interrupted: bool, quiet: bool) -> None:
+    """The lines the monitor prints once its output is written."""
+    from signatelec.estimation.monitor_report import format_summary
+
+    if interrupted and not quiet:
         click.echo(
             f"signatelec: monitor: stopped following at Ctrl-C; wrote the {len(windows)} windows "
             "analysed",

@@ -44,7 +44,12 @@ from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import CHUNK_ROWS, read_chunks
-from signatelec.measurement.traces import N_HARMONICS, TraceError, prepare_trace
+from signatelec.measurement.traces import (
+    MIN_BALL_PASSES,
+    N_HARMONICS,
+    TraceError,
+    prepare_trace,
+)
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Default window and hop, s: 200 ms windows are the longest of the training windows
@@ -73,7 +78,12 @@ KEPT_FEATURES = (
     "h2_rel",
     "h2_even_rel",
     "ball_pass_found_hz",
+    "harmonic_snr",
 )
+#: Most windows a sample may belong to (--window / --hop): a block's windows are analysed
+#: together, so its memory grows with this ratio: peak 0.46, 0.62, 0.91 GB at 1, 20, 50 on a
+#: 100 kHz trace (8 s, 0.2 s windows); a hop of one sample at 20 kHz was killed for lack of memory.
+MAX_OVERLAP = 50
 #: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
 #: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
 TRACK_MIN_SNR = 25.0
@@ -100,6 +110,39 @@ class MonitorSettings:
     def hop(self) -> float:
         return self.window_s if self.hop_s is None else self.hop_s
 
+    def check(self) -> None:
+        """TraceError (a ValueError: one line naming the option, its value and what is
+        allowed) for settings no trace can be monitored with."""
+        s = self
+        if (s.omega_rad_s is None) == (s.speed_column is None):
+            raise TraceError("give the speed one way: --omega RAD_S or --speed-column NAME")
+        if s.track_speed and s.omega_rad_s is None:
+            raise TraceError("--track-speed starts from --omega RAD_S; give it")
+        if s.follow_idle_s is not None and not s.follow_idle_s > 0:
+            raise TraceError(f"--idle {s.follow_idle_s!r}: must be > 0 s")
+        if s.follow_idle_s is not None and not s.follow:
+            raise TraceError(f"--idle {s.follow_idle_s!r}: ends --follow; give --follow too")
+        for name, value in (("--window", s.window_s), ("--hop", s.hop)):
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise TraceError(f"{name} {value!r}: must be a duration > 0 s")
+        if s.hop > s.window_s:
+            raise TraceError(
+                f"--hop {s.hop:g}: longer than --window {s.window_s:g}; samples would be skipped"
+            )
+        if s.window_s > MAX_OVERLAP * s.hop:
+            raise TraceError(
+                f"--hop {s.hop:g}: shorter than --window {s.window_s:g} / {MAX_OVERLAP}; each "
+                f"sample would be analysed more than {MAX_OVERLAP} times"
+            )
+        if s.omega_rad_s is not None and not (
+            isinstance(s.omega_rad_s, int | float)
+            and math.isfinite(s.omega_rad_s)
+            and s.omega_rad_s > 0
+        ):
+            raise TraceError(f"--omega {s.omega_rad_s!r}: must be a finite speed > 0 rad/s")
+        if s.omega_rad_s is not None and (short := _window_passes(s.window_s, s.omega_rad_s)):
+            raise TraceError(short)
+
 
 @dataclass
 class WindowTable:
@@ -122,9 +165,28 @@ class WindowTable:
         return pd.concat(self.parts, ignore_index=True)
 
 
+def _mean_speed(speed: np.ndarray) -> float:
+    """The mean of the speed samples that are not missing; NaN (without numpy's warning on
+    stderr) when all are."""
+    given = speed[~np.isnan(speed)]
+    return float(given.mean()) if given.size else math.nan
+
+
+def _window_passes(window_s: float, omega: float) -> str | None:
+    """Why a window of ``window_s`` at ``omega`` is too short for an estimate (fewer ball
+    passes than ``estimate`` needs), or None."""
+    passes = window_s * expected_ball_pass_hz(omega)
+    if passes >= MIN_BALL_PASSES:
+        return None
+    return (
+        f"--window {window_s:g}: {passes:.3g} ball passes at {omega:g} rad/s; a window needs at "
+        f"least {MIN_BALL_PASSES:g} (>= {window_s * MIN_BALL_PASSES / passes:.3g} s)"
+    )
+
+
 def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float | None):
     if speed is not None:
-        return float(np.nanmean(speed))
+        return _mean_speed(speed)
     if settings.track_speed and tracked is not None:
         return tracked
     return float(settings.omega_rad_s)
@@ -223,7 +285,13 @@ class _Windows:
             if self.s.window_s * self.fs < 16:
                 raise TraceError(
                     f"--window {self.s.window_s:g}: {self.s.window_s * self.fs:.1f} samples at "
-                    f"{self.fs:.6g} Hz; a window needs at least 16"
+                    f"{self.fs:.6g} Hz; a window needs at least 16 (is --time-column "
+                    f"{self.s.time_column!r} in seconds?)"
+                )
+            if self.s.hop * self.fs < 1.0:
+                raise TraceError(
+                    f"--hop {self.s.hop:g}: {self.s.hop * self.fs:.2g} samples at {self.fs:.6g} "
+                    "Hz; a hop needs at least one sample"
                 )
         while self.fs is not None and self._block(final=False):
             pass
@@ -358,9 +426,12 @@ class _Windows:
                 continue
             omega = omega_block
             if speed is not None:
-                omega = float(np.nanmean(speed[k * hop_n : k * hop_n + win_n]))
+                omega = _mean_speed(speed[k * hop_n : k * hop_n + win_n])
                 if not (math.isfinite(omega) and omega > 0):
                     row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
+                    continue
+                if short := _window_passes(self.s.window_s, omega):
+                    row["status"] = f"refused: {short}"
                     continue
             if self.s.track_speed and speed is None:
                 # the speed comes from the previous window's line: one window at a time
@@ -389,21 +460,7 @@ def monitor_trace(
     line) when the trace or its first block is refused; Ctrl-C while following ends the reading
     and keeps what was analysed (``interrupted``)."""
     s = settings
-    if s.omega_rad_s is None and s.speed_column is None:
-        raise TraceError("give the speed: --omega RAD_S or --speed-column NAME")
-    for name, value in (("--window", s.window_s), ("--hop", s.hop)):
-        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-            raise TraceError(f"{name} {value!r}: must be a duration > 0 s")
-    if s.hop > s.window_s:
-        raise TraceError(
-            f"--hop {s.hop:g}: longer than --window {s.window_s:g}; samples would be skipped"
-        )
-    if s.omega_rad_s is not None and not (
-        isinstance(s.omega_rad_s, int | float)
-        and math.isfinite(s.omega_rad_s)
-        and s.omega_rad_s > 0
-    ):
-        raise TraceError(f"--omega {s.omega_rad_s!r}: must be a finite speed > 0 rad/s")
+    s.check()
     table = WindowTable()
     source = f"trace {str(path)!r}"
     cutter = _Windows(s, model, table, source)

@@ -40,8 +40,77 @@ def _clean(value):
     return value
 
 
-def summary_of(table, settings, stretches, changes, alarms, extra: dict) -> dict:
+def qualify(stretches: list[dict], windows: pd.DataFrame, ranges: dict | None = None) -> list:
+    """Mark, in place, each stretch whose windows cannot carry a confident answer: its
+    ``warnings`` (what ``estimate`` warns of for one trace: no ball-pass line, so the speed is
+    unchecked and no regime call is confident; here also a window whose harmonics at its speed
+    stand below :data:`~signatelec.estimation.monitor.TRACK_MIN_SNR`, a speed column gone
+    wrong between two ripple screens; a speed outside the model's training range,
+    an extrapolation; features as atypical as the 1 % most atypical training traces) and
+    ``regime_confident`` (the regime probability at least
+    :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). Returns
+    the warnings as notes naming their stretch."""
+    from signatelec.estimation.domain import WARN_SCORE
+    from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
+    from signatelec.estimation.monitor import TRACK_MIN_SNR
+
+    lo, hi = (ranges or {}).get("omega_rad_s", (None, None))
+    ok = windows[windows["status"] == "ok"] if "status" in windows else windows
+    notes = []
+    for s in stretches:
+        inside = ok[(ok["start_s"] >= s["start_s"] - 1e-9) & (ok["end_s"] <= s["end_s"] + 1e-9)]
+        warnings = []
+        if len(inside):
+            no_line = inside["ripple"] == "none"
+            if "harmonic_snr" in inside:
+                no_line |= inside["harmonic_snr"] < TRACK_MIN_SNR
+            if no_line.mean() >= 0.5:
+                warnings.append(
+                    "no ball-pass line at the given speed in most of its windows (harmonic SNR "
+                    f"below {TRACK_MIN_SNR:g}): the speed is unchecked or wrong and no regime "
+                    "call is confident (a trace without ripple, a wrong speed, or a state at a "
+                    "zero of the ripple's first harmonic)"
+                )
+            omega = float(inside["omega_rad_s"].median())
+            if lo is not None and not lo <= omega <= hi:
+                warnings.append(
+                    f"omega {omega:g} rad/s is outside the training range {lo:.0f}-{hi:.0f} "
+                    "rad/s: extrapolating, the interval does not cover the model's error there"
+                )
+            score = float(inside["in_domain_score"].median())
+            if score < WARN_SCORE:
+                warnings.append(
+                    f"median in-domain score {score:.2g} (below {WARN_SCORE:g}): the windows are "
+                    "unlike the training traces, the answer is an extrapolation"
+                )
+        s["warnings"] = warnings
+        s["regime_confident"] = bool(
+            not warnings and (s.get("regime_probability") or 0.0) >= CONFIDENT_PROBABILITY
+        )
+        notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
+    return notes
+
+
+def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
+    """Mark, in place, each alarm ``confident`` when neither stretch it joins carries a warning
+    (:func:`qualify`): a regime alarm into a stretch without a ball-pass line is no finding."""
+    for a in alarms:
+        near = [
+            s
+            for s in stretches
+            if abs(s["start_s"] - a["time_s"]) < 1e-9 or abs(s["end_s"] - a["time_s"]) < 1e-9
+        ]
+        a["confident"] = not any(s.get("warnings") for s in near)
+
+
+def summary_of(
+    table, settings, stretches, changes, alarms, extra: dict, ranges: dict | None = None
+) -> dict:
+    """The content of ``summary.json``; ``ranges``: the model's training ranges
+    (``info["ranges"]``), against which the stretches are qualified (:func:`qualify`)."""
     windows = table.frame()
+    notes = list(table.notes) + qualify(stretches, windows, ranges)
+    qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]
     return _clean(
@@ -66,7 +135,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict) -> dict
                 "track_speed": settings.track_speed,
                 **extra,
             },
-            "notes": list(table.notes),
+            "notes": notes,
             "analysis_cpu_s": table.cpu_s,
             "stretches": stretches,
             "changes": changes,
@@ -217,9 +286,11 @@ def format_summary(summary: dict) -> str:
             f"[{s['radial_load_n_low']:.0f}, {s['radial_load_n_high']:.0f}]  epsilon "
             f"{s['epsilon']:.3f}  clearance {s['clearance_m'] * 1e6:+.1f} um  {s['regime']} "
             f"({s['regime_probability']:.2f})"
+            + ("" if s.get("regime_confident", True) else ", not confident")
         )
     for a in summary["alarms"]:
         lines.append(
             f"alarm at {a['time_s']:.3f} s: {a['what']} (probability {a['probability']:.3f})"
+            + ("" if a.get("confident", True) else "; not confident: see the notes")
         )
     return "\n".join(lines)

@@ -214,6 +214,11 @@ def _arrow_chunk(batch, names, where, first_row, time_s=None) -> Chunk:
     return Chunk(values[0], values[1], values[2] if len(values) > 2 else None, first_row)
 
 
+def _first(exc: BaseException) -> str:
+    """The first line of an exception's message (its type when it has none)."""
+    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+
+
 def _separator(head: bytes) -> str:
     lines = [x for x in head.decode("utf-8", "replace").splitlines() if not x.startswith("#")]
     try:
@@ -222,9 +227,10 @@ def _separator(head: bytes) -> str:
         return ","
 
 
-def _header(fh, follow: bool, poll_s: float, where: str) -> bytes:
+def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = None) -> bytes:
     """The first complete line that is neither blank nor a comment (waiting for it when
-    following a file being written)."""
+    following a file being written, at most ``idle_s`` without growth)."""
+    idle_since, size = time.monotonic(), None
     while True:
         pos = fh.tell()
         line = fh.readline()
@@ -234,6 +240,13 @@ def _header(fh, follow: bool, poll_s: float, where: str) -> bytes:
                     return line + b"\n"
                 raise TraceError(f"{where}: cannot be read as csv (no header line)")
             fh.seek(pos)
+            if size != pos + len(line):
+                idle_since, size = time.monotonic(), pos + len(line)
+            elif idle_s is not None and time.monotonic() - idle_since > idle_s:
+                raise TraceError(
+                    f"{where}: cannot be read as csv (no header line; the file did not grow "
+                    f"for --idle {idle_s:g} s)"
+                )
             time.sleep(poll_s)
             continue
         if line.strip() and not line.startswith(b"#"):
@@ -245,11 +258,17 @@ def _csv_chunks(path, names, where, chunk_rows, follow, poll_s, idle_s) -> Itera
 
     block_bytes = 40 * chunk_rows  # ~40 bytes per line of three numbers
     with open(path, "rb") as fh:
-        header = _header(fh, follow, poll_s, where)
+        header = _header(fh, follow, poll_s, where, idle_s)
         start = fh.tell()
         sep = _separator(header + fh.read(4096))
         fh.seek(start)
-        columns = pd.read_csv(io.BytesIO(header), sep=sep, nrows=0).columns
+        try:
+            columns = pd.read_csv(io.BytesIO(header), sep=sep, nrows=0).columns
+        except (ValueError, pd.errors.ParserError) as exc:
+            # UnicodeDecodeError is a ValueError: a binary file given as CSV
+            raise TraceError(
+                f"{where}: cannot be read as csv (header line: {_first(exc)})"
+            ) from None
         check_columns(columns, names, where)
         row, pending, idle_since = 0, b"", time.monotonic()
         while True:
@@ -275,9 +294,8 @@ def _csv_chunks(path, names, where, chunk_rows, follow, poll_s, idle_s) -> Itera
                     io.BytesIO(header + data), sep=sep, comment="#", usecols=list(names)
                 )
             except (ValueError, pd.errors.ParserError) as exc:
-                text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
                 raise TraceError(
-                    f"{where}: cannot be read as csv near row {row} ({text})"
+                    f"{where}: cannot be read as csv near row {row} ({_first(exc)})"
                 ) from None
             if len(df):
                 yield _chunk(df, names, where, row)
@@ -299,6 +317,8 @@ def read_chunks(
     p = Path(path)
     where = f"trace {str(path)!r}"
     suffix = p.suffix.lower()
+    if p.is_dir():
+        raise TraceError(f"{where}: is a directory; give a .csv or .parquet file")
     if not p.is_file():
         raise TraceError(f"{where}: no such file")
     names = _columns(time_column, resistance_column, speed_column)

@@ -270,6 +270,13 @@ def prepare_trace(
     fs = 1.0 / step
     f_bp = expected_ball_pass_hz(omega_rad_s)
     max_gap_s = MAX_GAP_BALL_PASSES / f_bp
+    # before the gaps: at a speed too high for the rate every step is a gap of the ripple
+    fs_min = minimum_sample_rate_hz(omega_rad_s)
+    if fs < fs_min:
+        raise TraceError(
+            f"{where}: sampled at {fs:.6g} Hz, below the {fs_min:.4g} Hz needed at "
+            f"{omega_rad_s:g} rad/s (the ball-pass harmonics the estimate reads would alias)"
+        )
 
     # every sample a resistance in range (nearly every block of a record): the extremes say so
     # without the masks below (a NaN makes them NaN and the test fail)
@@ -362,12 +369,6 @@ def prepare_trace(
         raise TraceError(
             f"{where}: median resistance {level:.3g} ohm: below {MIN_LEVEL_OHM:g} ohm, smaller "
             "than any bearing's contact resistance; give the column in ohm"
-        )
-    fs_min = minimum_sample_rate_hz(omega_rad_s)
-    if fs < fs_min:
-        raise TraceError(
-            f"{where}: sampled at {fs:.6g} Hz, below the {fs_min:.4g} Hz needed at "
-            f"{omega_rad_s:g} rad/s (the ball-pass harmonics the estimate reads would alias)"
         )
     return Trace(
         time_s=t - t[0],

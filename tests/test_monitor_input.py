@@ -1,0 +1,262 @@
+"""``signatelec monitor`` and its Python function given careless input: one-line refusals
+(TraceError, a ValueError) before any deep numpy error, and no confident answer from a trace
+or a setting that cannot carry one. No model is trained here: each refusal comes before the
+model is asked, and the summary's qualification is checked on window tables."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import time
+import warnings
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from signatelec.cli.common import signals_deferred
+from signatelec.estimation.evidence import non_overlapping, stretches_and_changes
+from signatelec.estimation.monitor import MAX_OVERLAP, MonitorSettings, monitor_trace
+from signatelec.estimation.monitor_report import qualify, qualify_alarms
+from signatelec.measurement.stream import read_chunks
+from signatelec.measurement.traces import TraceError, minimum_sample_rate_hz, prepare_trace
+from signatelec.physics.kinematics import expected_ball_pass_hz
+
+FS = 20000.0
+OMEGA = 500.0
+
+
+def _trace(path, seconds=1.0, fs=FS, **extra):
+    """A ball-pass ripple at OMEGA (a cosine at f_bp with 0.2 % noise) as a Parquet file."""
+    t = np.arange(int(seconds * fs)) / fs
+    rng = np.random.default_rng(0)
+    r = 3e-3 * (1 + 0.01 * np.cos(2 * np.pi * expected_ball_pass_hz(OMEGA) * t))
+    r *= 1 + 0.002 * rng.standard_normal(t.size)
+    pd.DataFrame({"time_s": t, "resistance_ohm": r, **extra}).to_parquet(path)
+    return path
+
+
+def _refused(path, **settings) -> str:
+    # no model: each refusal comes before one is asked (the level screen is skipped without
+    # a domain)
+    with pytest.raises(TraceError) as info:
+        monitor_trace(path, SimpleNamespace(domain=None), MonitorSettings(**settings))
+    message = str(info.value)
+    assert "\n" not in message
+    return message
+
+
+def test_binary_file_given_as_csv(tmp_path):
+    """Bytes that are no text: one line (was a UnicodeDecodeError traceback from pandas)."""
+    path = tmp_path / "noise.csv"
+    path.write_bytes(bytes(np.random.default_rng(1).integers(128, 256, 4000, dtype=np.uint8)))
+    assert "cannot be read as csv" in _refused(path, omega_rad_s=OMEGA)
+
+
+def test_directory_given_as_trace(tmp_path):
+    (tmp_path / "run.parquet").mkdir()
+    assert "is a directory" in _refused(tmp_path / "run.parquet", omega_rad_s=OMEGA)
+
+
+def test_follow_gives_up_on_a_file_without_header(tmp_path):
+    """--follow --idle on a file that never receives its header line ends after the idle time
+    (it waited for ever)."""
+    path = tmp_path / "live.csv"
+    path.write_text("")
+    clock = time.monotonic()
+    with pytest.raises(TraceError, match="no header line"):
+        list(read_chunks(path, follow=True, poll_s=0.02, idle_s=0.2))
+    assert time.monotonic() - clock < 2.0
+
+
+def test_hop_overlap_bounded(tmp_path):
+    """A hop far below the window multiplies the windows of a block analysed together (a hop
+    of 1e-5 s on 0.2 s windows at 20 kHz was killed for lack of memory): refused beyond
+    MAX_OVERLAP windows per sample."""
+    message = _refused(tmp_path / "x.parquet", omega_rad_s=OMEGA, window_s=0.2, hop_s=1e-5)
+    assert message.startswith("--hop 1e-05") and f"/ {MAX_OVERLAP}" in message
+
+
+def test_hop_below_one_sample(tmp_path):
+    """A hop shorter than the sampling step would give every window of a block the same
+    samples (a hop of round(hop fs) = 0 samples)."""
+    path = _trace(tmp_path / "slow.parquet", fs=2000.0)
+    message = _refused(path, omega_rad_s=OMEGA, window_s=0.0125, hop_s=0.0003)
+    assert message.startswith("--hop 0.0003") and "at least one sample" in message
+
+
+def test_window_needs_the_ball_passes_of_estimate(tmp_path):
+    """A window of 2 ball passes (5 ms at 500 rad/s, f_bp = 409.7 Hz) is refused as estimate
+    refuses a trace under 5; with a speed column the windows say so."""
+    f_bp = expected_ball_pass_hz(OMEGA)
+    message = _refused(tmp_path / "x.parquet", omega_rad_s=OMEGA, window_s=0.005)
+    assert message.startswith("--window 0.005") and f"{0.005 * f_bp:.3g} ball passes" in message
+    path = _trace(tmp_path / "speed.parquet", speed=np.full(int(FS), OMEGA))
+    message = _refused(path, speed_column="speed", window_s=0.005)
+    assert "none of its" in message and "a window needs at least 5" in message
+
+
+def test_missing_speed_column_without_numpy_warning(tmp_path):
+    """A speed column without a value: one refusal, and no RuntimeWarning line on stderr."""
+    path = _trace(tmp_path / "speed.parquet", speed=np.full(int(FS), np.nan))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert "speed nan rad/s" in _refused(path, speed_column="speed")
+
+
+def test_speed_beyond_the_sampling_named_before_gaps():
+    """--omega 1e9 at 20 kHz: the aliasing is named (it was read as a gap between every pair
+    of samples, the gap limit being a quarter of a 1 ns ball pass)."""
+    t = np.arange(4000) / FS
+    with pytest.raises(TraceError, match="would alias") as info:
+        prepare_trace(t, np.full(t.size, 3e-3), 1e9)
+    assert f"{minimum_sample_rate_hz(1e9):.4g} Hz needed" in str(info.value)
+
+
+def _windows(n, hop, window, seed=0, ripple="found", omega=OMEGA, shift_at=None, snr=100.0):
+    """A window table of one state whose features are window means of white sample noise, so
+    that overlapping windows share their samples as on a trace (``shift_at``: index of the
+    window from which F_r and the level step up by 10 %)."""
+    rng = np.random.default_rng(seed)
+    per = 4  # samples per hop
+    span = int(round(window / hop)) * per
+    noise = rng.standard_normal((4, n * per + span))
+    kernel = np.ones(span) / span
+    means = np.stack([np.convolve(x, kernel, mode="valid")[: n * per : per] for x in noise])
+    start = np.arange(n) * hop
+    step = np.where(np.arange(n) >= (shift_at if shift_at is not None else n), 1.1, 1.0)
+    load = 5000.0 * step * (1 + 0.005 * means[1])
+    return pd.DataFrame(
+        {
+            "start_s": start,
+            "end_s": start + window,
+            "time_s": start + 0.5 * window,
+            "status": "ok",
+            "ripple": ripple,
+            "omega_rad_s": omega,
+            "in_domain_score": 0.5,
+            "level_mean_ohm": 3e-3 / step * (1 + 0.002 * means[0]),
+            "radial_load_n": load,
+            "radial_load_n_low": load * 0.99,
+            "radial_load_n_high": load * 1.01,
+            "epsilon": 0.5 + 0.01 * means[2],
+            "epsilon_low": 0.45 + 0.01 * means[2],
+            "epsilon_high": 0.55 + 0.01 * means[2],
+            "h1_rel": 1e-3 * (1 + 0.05 * means[3]),
+            "h2_rel": np.full(n, 1e-4),
+            "harmonic_snr": snr,
+            "regime_probability_zero": 0.9,
+            "regime_probability_preload": 0.1,
+        }
+    )
+
+
+def test_overlapping_windows_do_not_split_a_constant_record():
+    """A minute of one state at a quarter-window hop (windows sharing 3/4 of their samples):
+    no change at 0.1 per hour (the detector read the overlap's smoothness as precision and
+    split such a record of the quasi-static tier 48 times), and a 10 % step still found within
+    one window of its time."""
+    hop, window = 0.05, 0.2
+    for seed in range(3):
+        stretches, changes, _ = stretches_and_changes(_windows(1200, hop, window, seed), hop)
+        assert changes == [] and len(stretches) == 1
+    _, changes, _ = stretches_and_changes(_windows(1200, hop, window, 7, shift_at=600), hop)
+    assert [c["time_s"] for c in changes] == pytest.approx([30.0], abs=window)
+
+
+def test_non_overlapping_windows_kept():
+    table = _windows(40, 0.05, 0.2)
+    kept = non_overlapping(table)
+    assert kept["start_s"].to_numpy() == pytest.approx(np.arange(10) * 0.2)
+
+
+@pytest.mark.parametrize(
+    ("ripple", "snr", "omega", "warned"),
+    [
+        ("found", 100.0, OMEGA, None),
+        ("none", 100.0, OMEGA, "no ball-pass line"),
+        ("found", 2.0, OMEGA, "no ball-pass line"),
+        ("found", 100.0, 1000.0, "outside the training range 250-750"),
+    ],
+)
+def test_stretch_qualified(ripple, snr, omega, warned):
+    """A stretch of windows without a ball-pass line (the screen's, or the window's harmonics
+    at its speed below 5 sigma: a trace of white noise at a bearing's level, or a speed column
+    3 % off between two screens, was a stretch of regime probability 1.00) or at a speed
+    outside the model's training range is not a confident regime call, and the summary's
+    notes say why."""
+    table = _windows(100, 0.2, 0.2, ripple=ripple, omega=omega, snr=snr)
+    stretches, _, _ = stretches_and_changes(table, 0.2)
+    notes = qualify(stretches, table, {"omega_rad_s": (250.0, 750.0)})
+    (stretch,) = stretches
+    assert stretch["regime_probability"] > 0.99
+    if warned is None:
+        assert stretch["regime_confident"] and stretch["warnings"] == [] and notes == []
+    else:
+        assert not stretch["regime_confident"]
+        assert len(notes) == 1 and warned in notes[0] and notes[0].startswith("stretch 0-20 s")
+
+
+def test_signals_deferred_after_the_output_is_written():
+    """Ctrl-C after the output is in place does not turn a finished run into exit 130 (it was
+    "interrupted" with the new output written); the handler is restored afterwards."""
+    before = signal.getsignal(signal.SIGINT)
+    with signals_deferred():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+@pytest.mark.parametrize(
+    ("hop", "rate", "threshold", "named"),
+    [
+        (0.2, math.nan, 0.05, "--false-alarm-rate nan"),
+        (0.2, 0.1, -1.0, "--load-threshold -1.0"),
+        (0.2, 0.1, math.nan, "--load-threshold nan"),
+        (math.nan, 0.1, 0.05, "--hop nan"),
+    ],
+)
+def test_evidence_settings_refused(hop, rate, threshold, named):
+    """The Python function refuses what the command refuses, with its line (a NaN rate split
+    a two-state record into 32 stretches; a negative threshold was a math domain error)."""
+    with pytest.raises(ValueError, match="must be in") as info:
+        stretches_and_changes(_windows(300, 0.2, 0.2, shift_at=150), hop, rate, threshold)
+    assert str(info.value).startswith(named)
+
+
+def test_settings_refused_as_by_the_command():
+    """Both speeds, or tracking without --omega: refused by the settings themselves (the
+    Python function took the speed column silently)."""
+    for settings, named in (
+        (MonitorSettings(omega_rad_s=OMEGA, speed_column="speed"), "give the speed one way"),
+        (MonitorSettings(speed_column="speed", track_speed=True), "--track-speed"),
+        (MonitorSettings(omega_rad_s=OMEGA, follow=True, follow_idle_s=0.0), "--idle 0.0"),
+        (MonitorSettings(omega_rad_s=OMEGA, follow_idle_s=1.0), "give --follow too"),
+    ):
+        with pytest.raises(TraceError, match=named):
+            settings.check()
+
+
+def test_time_in_milliseconds_named(tmp_path):
+    """A time column in ms reads as 20 Hz sampling: the refusal asks about its unit."""
+    t = np.arange(4000) / FS * 1e3
+    path = tmp_path / "ms.parquet"
+    pd.DataFrame({"time_s": t, "resistance_ohm": np.full(t.size, 3e-3)}).to_parquet(path)
+    message = _refused(path, omega_rad_s=OMEGA)
+    assert message.startswith("--window 0.2: 4.0 samples at 20 Hz")
+    assert "is --time-column 'time_s' in seconds?" in message
+
+
+def test_alarm_into_a_stretch_without_line_not_confident():
+    """A 10 % load step into windows whose harmonics vanish at their speed (a speed column gone
+    wrong): the alarm is raised, marked not confident; the step between two clean stretches
+    stays confident."""
+    for snr, confident in ((100.0, True), (np.r_[np.full(150, 100.0), np.full(150, 2.0)], False)):
+        table = _windows(300, 0.2, 0.2, seed=3, shift_at=150, snr=snr)
+        stretches, _, alarms = stretches_and_changes(table, 0.2)
+        qualify(stretches, table)
+        qualify_alarms(alarms, stretches)
+        assert [a["kind"] for a in alarms] == ["load"]
+        assert alarms[0]["confident"] is confident
