@@ -29,8 +29,10 @@ import os
 import re
 import secrets
 import shutil
+import signal
 import socket
 import tempfile
+import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
@@ -490,6 +492,22 @@ def _flush_tree(directory: Path) -> None:
 
 
 @contextmanager
+def signals_deferred():
+    """Ctrl-C and SIGTERM ignored within the block (in the main thread; elsewhere signals reach
+    only the main thread anyway): for what must not be cut short, the exchange of a complete
+    output with the old one and what follows a written output."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    kept = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in kept.items():
+            signal.signal(s, handler)
+
+
+@contextmanager
 def replace_directory(
     out: str | Path, command: str, *, previous: Callable[[Path], bool] | None = None
 ) -> Iterator[Path]:
@@ -529,33 +547,45 @@ def replace_directory(
                 f"--out {str(out)!r}: cannot be written ({exc.strerror or exc}); nothing was "
                 "written and any previous output is unchanged"
             ) from None
-        if out.is_dir():
-            why = refusal(out, command)
-            if why is not None and not (previous is not None and previous(out)):
-                raise OutputError(f"--out {str(out)!r}: {why}; nothing was written")
-            if not _exchange(tmp, out):
-                old = parent / temporary_name()
-                os.rename(out, old)
-                try:
-                    os.rename(tmp, out)
-                except OSError:
-                    os.rename(old, out)
-                    raise
-                tmp = old
-        elif out.exists() or out.is_symlink():
-            raise OutputError(f"--out {str(out)!r}: exists and is not a directory; nothing written")
-        else:
-            os.rename(tmp, out)
-        fsync_directory(parent)
+        # from the exchange to the old output's removal a Ctrl-C would report "nothing
+        # written" with the new output in place: it is ignored there (the output completes)
+        with signals_deferred():
+            if out.is_dir():
+                why = refusal(out, command)
+                if why is not None and not (previous is not None and previous(out)):
+                    raise OutputError(f"--out {str(out)!r}: {why}; nothing was written")
+                if not _exchange(tmp, out):
+                    old = parent / temporary_name()
+                    os.rename(out, old)
+                    try:
+                        os.rename(tmp, out)
+                    except OSError:
+                        os.rename(old, out)
+                        raise
+                    tmp = old
+            elif out.exists() or out.is_symlink():
+                raise OutputError(
+                    f"--out {str(out)!r}: exists and is not a directory; nothing written"
+                )
+            else:
+                os.rename(tmp, out)
+            fsync_directory(parent)
+            _remove_temporary(tmp, created, out)
     finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-        if created is not None and not out.exists():
-            with contextlib.suppress(OSError):  # only directories left empty
-                for directory in (parent, *parent.parents):
-                    os.rmdir(directory)
-                    if directory == created:
-                        break
+        _remove_temporary(tmp, created, out)
+
+
+def _remove_temporary(tmp: Path, created: Path | None, out: Path) -> None:
+    """Remove ``tmp`` (the new output's temporary, or the old output once exchanged) and, when
+    ``out`` is not there, the directories made for it."""
+    if tmp.exists():
+        shutil.rmtree(tmp, ignore_errors=True)
+    if created is not None and not out.exists():
+        with contextlib.suppress(OSError):  # only directories left empty
+            for directory in (out.parent, *out.parent.parents):
+                os.rmdir(directory)
+                if directory == created:
+                    break
 
 
 def write_result(result, out_dir: str | Path) -> None:

@@ -175,6 +175,31 @@ def test_the_exchange_without_renameat2_gives_the_same_result(tmp_path, monkeypa
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+@pytest.mark.parametrize("atomic", [True, False])
+def test_ctrl_c_during_the_exchange_completes_it(tmp_path, monkeypatch, atomic):
+    """A Ctrl-C that lands while the new output takes the old one's place (with or without an
+    atomic exchange) neither leaves both halves nor reports "nothing written" for an output
+    that is in place: the exchange and the old output's removal finish, no interrupt."""
+    import signal
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / io.MARKER_FILE).write_text('{"command": "test"}')
+    (out / "old.txt").write_text("old")
+    exchange = io._exchange
+
+    def interrupted(a, b):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)  # the signal is delivered before the exchange goes on
+        return exchange(a, b) if atomic else False
+
+    monkeypatch.setattr(io, "_exchange", interrupted)
+    with io.replace_directory(out, "test") as tmp:
+        (tmp / "new.txt").write_text("new")
+    assert sorted(p.name for p in out.iterdir()) == [io.MARKER_FILE, "new.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
 def test_a_killed_runs_temporaries_are_removed_and_no_other_file(tmp_path):
     stale = tmp_path / stale_name(dead_pid())
     stale.mkdir()

@@ -3,9 +3,7 @@ locations, and the ``signatelec`` command group every command module registers o
 
 from __future__ import annotations
 
-import contextlib
 import signal
-import threading
 from pathlib import Path
 
 import click
@@ -143,21 +141,6 @@ def write_output(write) -> None:
         raise Stopped(str(exc), EXIT_INCOMPLETE) from None
     except KeyboardInterrupt as exc:
         raise Stopped(f"{_stop_word(exc)}; nothing written", _stop_code(exc)) from None
-
-
-@contextlib.contextmanager
-def signals_deferred():
-    """Ctrl-C and SIGTERM ignored within the block (in the main thread; elsewhere signals reach
-    only the main thread anyway): for what follows a complete, written output."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    kept = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for s, handler in kept.items():
-            signal.signal(s, handler)
 
 
 def check_writable_file(out: str, option: str = "--out", suffixes=None) -> None:

@@ -10,8 +10,8 @@ from signatelec.cli.common import (
     InputError,
     check_writable_file,
     cli,
-    signals_deferred,
 )
+from signatelec.io import signals_deferred
 
 
 def trace_columns(command):
