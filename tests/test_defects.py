@@ -80,6 +80,8 @@ def test_bad_defects_and_loads_are_refused_in_one_line():
         ),
         ({"loads": {"unbalance_force_n": 1e6}}, "plus the largest F_r"),
         ({"housing": {"out_of_round_lobes": 1.5}}, "must be an integer"),
+        # a list reached the lobes' rule before its type was checked (a TypeError)
+        ({"housing": {"out_of_round_lobes": []}}, "out_of_round_lobes = []: must be an integer"),
     ]
     for table, match in cases:
         with pytest.raises(SceneError, match=match.replace("[", r"\[").replace("(", r"\(")) as e:
