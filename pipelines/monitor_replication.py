@@ -150,8 +150,8 @@ def main() -> None:
     lines = [
         "# The monitor's acceptance on more held-out banks",
         "",
-        f"Written by `python pipelines/monitor_replication.py` ({__doc__.splitlines()[0][:-1]}; "
-        "its docstring says how). The acceptance bank of `signatelec study monitor` and "
+        "Written by `python pipelines/monitor_replication.py` (its docstring says how). "
+        "The acceptance bank of `signatelec study monitor` and "
         f"{len(REPLICATION_SEEDS)} more banks of 72 states drawn alike (seeds "
         f"{', '.join(map(str, REPLICATION_SEEDS))}, fixed before any was drawn), each "
         "monitored as the study's acceptance records are: 20 records of 6 stretches of 2-10 s "
