@@ -493,13 +493,10 @@ def _flush_tree(directory: Path) -> None:
 
 @contextmanager
 def signals_deferred():
-    """Ctrl-C and SIGTERM ignored within the block (in the main thread; elsewhere signals reach
-    only the main thread anyway): for what must not be cut short, the exchange of a complete
-    output with the old one and what follows a written output."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    kept = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    """Ctrl-C and SIGTERM ignored within the block (in the main thread; signals reach only it):
+    for what must not be cut short, an output's exchange and what follows a written output."""
+    main = threading.current_thread() is threading.main_thread()
+    kept = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM) if main}
     try:
         yield
     finally:
@@ -570,22 +567,15 @@ def replace_directory(
             else:
                 os.rename(tmp, out)
             fsync_directory(parent)
-            _remove_temporary(tmp, created, out)
     finally:
-        _remove_temporary(tmp, created, out)
-
-
-def _remove_temporary(tmp: Path, created: Path | None, out: Path) -> None:
-    """Remove ``tmp`` (the new output's temporary, or the old output once exchanged) and, when
-    ``out`` is not there, the directories made for it."""
-    if tmp.exists():
-        shutil.rmtree(tmp, ignore_errors=True)
-    if created is not None and not out.exists():
-        with contextlib.suppress(OSError):  # only directories left empty
-            for directory in (out.parent, *out.parent.parents):
-                os.rmdir(directory)
-                if directory == created:
-                    break
+        with signals_deferred():  # the temporary, or the old output once exchanged
+            shutil.rmtree(tmp, ignore_errors=True)
+            if created is not None and not out.exists():
+                with contextlib.suppress(OSError):  # only directories left empty
+                    for directory in (parent, *parent.parents):
+                        os.rmdir(directory)
+                        if directory == created:
+                            break
 
 
 def write_result(result, out_dir: str | Path) -> None:
