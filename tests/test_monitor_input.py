@@ -23,6 +23,7 @@ from signatelec.io import signals_deferred
 from signatelec.measurement.stream import read_chunks
 from signatelec.measurement.traces import TraceError, minimum_sample_rate_hz, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
+from tests.cli_run import run_main
 
 FS = 20000.0
 OMEGA = 500.0
@@ -260,3 +261,79 @@ def test_alarm_into_a_stretch_without_line_not_confident():
         qualify_alarms(alarms, stretches)
         assert [a["kind"] for a in alarms] == ["load"]
         assert alarms[0]["confident"] is confident
+
+
+def test_wrong_speed_column_named(tmp_path):
+    """A speed column whose speed the ripple contradicts (a ripple at 500 rad/s, the column
+    300 rad/s): the refusal names the column and its mean over the block (it said "for
+    --omega 300", an option the user did not give)."""
+    path = _trace(tmp_path / "speed.parquet", speed=np.full(int(FS), 300.0))
+    message = _refused(path, speed_column="speed")
+    assert "--omega" not in message
+    assert f"expected {expected_ball_pass_hz(300.0):.1f} Hz for --speed-column 'speed' " in message
+    assert "(its mean 300 rad/s over 0-0.99995 s)" in message
+    assert "the trace's speed is about 500 rad/s" in message
+
+
+def test_window_longer_than_the_training_windows_not_confident():
+    """3 s windows (the training windows are at most 0.2 s, so harmonic_snr and
+    duration_ball_passes, which grow with the length, lie beyond what the model saw): answered,
+    with one note, and no stretch or alarm confident; 0.2 s windows are not warned of."""
+    table = _windows(40, 3.0, 3.0, seed=3, shift_at=20)
+    for window_s, warned in ((3.0, True), (0.2, False)):
+        stretches, _, alarms = stretches_and_changes(table, 3.0)
+        notes = qualify(stretches, table, {"omega_rad_s": (250.0, 750.0)}, window_s)
+        qualify_alarms(alarms, stretches)
+        assert len(stretches) == 2 and [a["kind"] for a in alarms] == ["load"]
+        assert all(s["regime_confident"] is not warned for s in stretches)
+        assert alarms[0]["confident"] is not warned
+        if warned:
+            (note,) = notes
+            assert note.startswith("--window 3 s is longer than the training windows (at most")
+            assert "harmonic_snr" in note and "duration_ball_passes" in note
+        else:
+            assert notes == []
+
+
+@pytest.mark.parametrize(
+    ("name", "args", "named"),
+    [
+        ("ok.parquet", ["--speed-column", "v"], "no column 'v'"),
+        ("ok.csv", ["--omega", "500", "--time-column", "t"], "no column 't'"),
+        ("none.parquet", ["--omega", "500"], "no such file"),
+        ("ok.h5", ["--omega", "500"], "unknown format '.h5'"),
+    ],
+)
+def test_trace_refused_before_the_model(tmp_path, capsys, monkeypatch, name, args, named):
+    """A trace that can be refused from its name, footer or header is refused before the model
+    is loaded or built (a first-time build takes minutes), with the line of the reader."""
+    from signatelec.estimation import persistence
+
+    def no_model(*_args, **_kwargs):
+        raise AssertionError("the model was loaded before the trace was checked")
+
+    monkeypatch.setattr(persistence, "default_model", no_model)
+    monkeypatch.setattr(persistence, "load_model", no_model)
+    path = tmp_path / name
+    frame = pd.DataFrame({"time_s": np.arange(100) / FS, "resistance_ohm": np.full(100, 3e-3)})
+    if name.endswith(".parquet"):
+        frame.to_parquet(tmp_path / "ok.parquet")
+    else:
+        frame.to_csv(path, index=False)
+    out = tmp_path / "out"
+    code = run_main(["monitor", str(path), "--out", str(out), "--quiet", *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and named in err[0], err
+    assert err[0].startswith(f"signatelec: error: trace {str(path)!r}: ")
+    assert not out.exists()
+
+
+def test_idle_must_be_finite_and_too_short_in_grammar(tmp_path):
+    """--idle inf would follow for ever, which is --follow without --idle: refused with that
+    said; a trace of one sample is "1 sample"."""
+    with pytest.raises(TraceError) as info:
+        MonitorSettings(omega_rad_s=OMEGA, follow=True, follow_idle_s=math.inf).check()
+    assert str(info.value).startswith("--idle inf: must be a finite duration > 0 s")
+    path = tmp_path / "one.parquet"
+    pd.DataFrame({"time_s": [0.0], "resistance_ohm": [3e-3]}).to_parquet(path)
+    assert "1 sample, shorter than one --window of 0.2 s" in _refused(path, omega_rad_s=OMEGA)

@@ -220,6 +220,7 @@ def monitor(
     from signatelec.estimation.monitor_report import COMMAND, summary_of, write_monitor
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.io import input_size_problem
+    from signatelec.measurement.stream import check_trace_file
     from signatelec.measurement.traces import TraceError
 
     settings = MonitorSettings(
@@ -242,6 +243,10 @@ def monitor(
     if problem:
         raise InputError(f"trace {trace_file!r}: {problem}")
     claim_output(out, COMMAND)
+    try:  # before the model, whose first build takes minutes: the file, its format, its columns
+        check_trace_file(trace_file, time_column, resistance_column, speed_column, follow=follow)
+    except TraceError as exc:
+        raise InputError(str(exc)) from None
     try:
         model = (
             load_model(model_path)

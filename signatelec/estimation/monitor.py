@@ -118,8 +118,12 @@ class MonitorSettings:
             raise TraceError("give the speed one way: --omega RAD_S or --speed-column NAME")
         if s.track_speed and s.omega_rad_s is None:
             raise TraceError("--track-speed starts from --omega RAD_S; give it")
-        if s.follow_idle_s is not None and not s.follow_idle_s > 0:
-            raise TraceError(f"--idle {s.follow_idle_s!r}: must be > 0 s")
+        if s.follow_idle_s is not None and not 0 < s.follow_idle_s < math.inf:
+            # an infinite idle time would follow for ever: that is --follow without --idle
+            raise TraceError(
+                f"--idle {s.follow_idle_s!r}: must be a finite duration > 0 s (without --idle, "
+                "--follow reads until Ctrl-C)"
+            )
         if s.follow_idle_s is not None and not s.follow:
             raise TraceError(f"--idle {s.follow_idle_s!r}: ends --follow; give --follow too")
         for name, value in (("--window", s.window_s), ("--hop", s.hop)):
@@ -192,8 +196,9 @@ def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: floa
     return float(settings.omega_rad_s)
 
 
-def _screen(trace, omega, model: LoadStateModel, first: bool):
-    """(ripple status, note) of a block's first SCREEN_S, or TraceError. A later block whose
+def _screen(trace, omega, model: LoadStateModel, first: bool, speed: str | None = None):
+    """(ripple status, note) of a block's first SCREEN_S, or TraceError naming ``speed`` (what
+    the user gave for ``omega``: :func:`_speed_given`). A later block whose
     first SCREEN_S shows the line elsewhere has its last SCREEN_S screened too, and is refused
     only when both do: a change of state within the screened trace joins two ripples whose
     phases do not continue, which can move the periodogram's peak out of the tolerance (a
@@ -209,8 +214,22 @@ def _screen(trace, omega, model: LoadStateModel, first: bool):
         if again.status not in ("elsewhere", "constant"):
             ripple = again
     if ripple.status in ("elsewhere", "constant"):
-        raise TraceError(f"{trace.source}: {ripple.problem()}")
+        raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
     return ripple.status, note if first else None
+
+
+def _speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: float, first):
+    """How a refusal names the speed ``omega`` of the block ``start_s``-``end_s``: what the user
+    gave (the speed column's mean there, the speed tracked from the ball-pass line), or None
+    for --omega (:meth:`~signatelec.measurement.ripple.Ripple.problem`'s own words)."""
+    if settings.speed_column is not None:
+        return (
+            f"--speed-column {settings.speed_column!r} (its mean {omega:g} rad/s over "
+            f"{start_s:.6g}-{end_s:.6g} s)"
+        )
+    if settings.track_speed and not first:
+        return f"the speed tracked from the ball-pass line, {omega:g} rad/s (--track-speed)"
+    return None
 
 
 @functools.cache
@@ -397,7 +416,8 @@ class _Windows:
                 source=where if not self.first else self.source,
             )
             if self.first or start >= self.next_screen_s:
-                ripple, note = _screen(trace, omega_block, self.model, self.first)
+                given = _speed_given(self.s, omega_block, start, self.t[hi - 1], self.first)
+                ripple, note = _screen(trace, omega_block, self.model, self.first, given)
                 self.ripple, self.next_screen_s = ripple, start + SCREEN_EVERY_S
                 if note:
                     self.table.notes.append(note)
@@ -491,6 +511,7 @@ def monitor_trace(
         )
     if not table.parts:
         raise TraceError(
-            f"{source}: {table.n_samples} samples, shorter than one --window of {s.window_s:g} s"
+            f"{source}: {table.n_samples} sample{'' if table.n_samples == 1 else 's'}, shorter "
+            f"than one --window of {s.window_s:g} s"
         )
     return table

@@ -40,23 +40,46 @@ def _clean(value):
     return value
 
 
-def qualify(stretches: list[dict], windows: pd.DataFrame, ranges: dict | None = None) -> list:
+def _long_window(window_s: float | None) -> str | None:
+    """The warning for windows longer than the training windows, or None."""
+    from signatelec.estimation.features import LENGTH_DEPENDENT
+    from signatelec.estimation.monitor import WINDOW_S
+
+    if window_s is None or window_s <= WINDOW_S * (1.0 + 1e-9):
+        return None
+    return (
+        f"--window {window_s:g} s is longer than the training windows (at most {WINDOW_S:g} s): "
+        f"the features that grow with the length ({', '.join(LENGTH_DEPENDENT)}) are outside "
+        "what the model saw, the answer is an extrapolation"
+    )
+
+
+def qualify(
+    stretches: list[dict],
+    windows: pd.DataFrame,
+    ranges: dict | None = None,
+    window_s: float | None = None,
+) -> list:
     """Mark, in place, each stretch whose windows cannot carry a confident answer: its
     ``warnings`` (what ``estimate`` warns of for one trace: no ball-pass line, so the speed is
     unchecked and no regime call is confident; here also a window whose harmonics at its speed
     stand below :data:`~signatelec.estimation.monitor.TRACK_MIN_SNR`, a speed column gone
     wrong between two ripple screens; a speed outside the model's training range,
-    an extrapolation; features as atypical as the 1 % most atypical training traces) and
+    an extrapolation; features as atypical as the 1 % most atypical training traces; windows
+    longer than the training windows, ``window_s`` above
+    :data:`~signatelec.estimation.monitor.WINDOW_S`, whose length-dependent features
+    (:data:`~signatelec.estimation.features.LENGTH_DEPENDENT`) the model never saw) and
     ``regime_confident`` (the regime probability at least
     :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). Returns
-    the warnings as notes naming their stretch."""
+    the warnings as notes naming their stretch (the window's length: one note for all)."""
     from signatelec.estimation.domain import WARN_SCORE
     from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
     from signatelec.estimation.monitor import TRACK_MIN_SNR
 
     lo, hi = (ranges or {}).get("omega_rad_s", (None, None))
     ok = windows[windows["status"] == "ok"] if "status" in windows else windows
-    notes = []
+    long_window = _long_window(window_s)
+    notes = [long_window] if long_window and stretches else []
     for s in stretches:
         inside = ok[(ok["start_s"] >= s["start_s"] - 1e-9) & (ok["end_s"] <= s["end_s"] + 1e-9)]
         warnings = []
@@ -83,11 +106,13 @@ def qualify(stretches: list[dict], windows: pd.DataFrame, ranges: dict | None = 
                     f"median in-domain score {score:.2g} (below {WARN_SCORE:g}): the windows are "
                     "unlike the training traces, the answer is an extrapolation"
                 )
+        notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
+        if long_window:
+            warnings.append(long_window)
         s["warnings"] = warnings
         s["regime_confident"] = bool(
             not warnings and (s.get("regime_probability") or 0.0) >= CONFIDENT_PROBABILITY
         )
-        notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
     return notes
 
 
@@ -109,7 +134,7 @@ def summary_of(
     """The content of ``summary.json``; ``ranges``: the model's training ranges
     (``info["ranges"]``), against which the stretches are qualified (:func:`qualify`)."""
     windows = table.frame()
-    notes = list(table.notes) + qualify(stretches, windows, ranges)
+    notes = list(table.notes) + qualify(stretches, windows, ranges, settings.window_s)
     qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]

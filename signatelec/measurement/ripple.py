@@ -190,9 +190,10 @@ class Ripple:
         """The speed at which the line would be the kinematic ball-pass fundamental."""
         return self.omega_rad_s * self.frequency_hz / self.expected_hz
 
-    def problem(self) -> str | None:
-        """The one-line reason to refuse the trace, or None when the ripple is there."""
-        om = f"--omega {self.omega_rad_s:g}"
+    def problem(self, speed: str | None = None) -> str | None:
+        """The one-line reason to refuse the trace, or None when the ripple is there;
+        ``speed``: what the user gave for the speed (default ``--omega`` and its value)."""
+        om = speed or f"--omega {self.omega_rad_s:g}"
         if self.status == "elsewhere":
             return (
                 f"ripple at {self.frequency_hz:.1f} Hz (false-alarm probability "
@@ -206,8 +207,8 @@ class Ripple:
             )
         if self.status == "none":
             return (
-                f"no ball-pass ripple found near {self.expected_hz:.1f} Hz: wrong --omega, or "
-                "not a running bearing"
+                f"no ball-pass ripple found near {self.expected_hz:.1f} Hz: wrong "
+                f"{'--omega' if speed is None else speed}, or not a running bearing"
             )
         return None
 

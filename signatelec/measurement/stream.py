@@ -144,7 +144,8 @@ def _record_step(extents, rows: int) -> float | None:
     return step
 
 
-def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
+def _parquet_file(path, names, where):
+    """The open Parquet file, its columns checked (its footer read, no rows)."""
     import pyarrow.parquet as pq
 
     try:
@@ -156,6 +157,11 @@ def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
             f"{where}: cannot be read as parquet ({str(exc).splitlines()[0]})"
         ) from None
     check_columns(pf.schema_arrow.names, names, where)
+    return pf
+
+
+def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
+    pf = _parquet_file(path, names, where)
     leaf = _time_leaf(pf, names[0])
     row, step, last = 0, None, None  # the record's step and last time, from times read
     for group in range(pf.num_row_groups):
@@ -253,23 +259,37 @@ def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = 
             return line
 
 
+def _open(path, where):
+    try:
+        return open(path, "rb")
+    except OSError as exc:
+        raise TraceError(f"{where}: cannot be read ({exc.strerror or _first(exc)})") from None
+
+
+def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
+    """(header line, separator) of a CSV file, its columns checked; ``fh`` left after the
+    header."""
+    import pandas as pd
+
+    header = _header(fh, follow, poll_s, where, idle_s)
+    start = fh.tell()
+    sep = _separator(header + fh.read(4096))
+    fh.seek(start)
+    try:
+        columns = pd.read_csv(io.BytesIO(header), sep=sep, nrows=0).columns
+    except (ValueError, pd.errors.ParserError) as exc:
+        # UnicodeDecodeError is a ValueError: a binary file given as CSV
+        raise TraceError(f"{where}: cannot be read as csv (header line: {_first(exc)})") from None
+    check_columns(columns, names, where)
+    return header, sep
+
+
 def _csv_chunks(path, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[Chunk]:
     import pandas as pd
 
     block_bytes = 40 * chunk_rows  # ~40 bytes per line of three numbers
-    with open(path, "rb") as fh:
-        header = _header(fh, follow, poll_s, where, idle_s)
-        start = fh.tell()
-        sep = _separator(header + fh.read(4096))
-        fh.seek(start)
-        try:
-            columns = pd.read_csv(io.BytesIO(header), sep=sep, nrows=0).columns
-        except (ValueError, pd.errors.ParserError) as exc:
-            # UnicodeDecodeError is a ValueError: a binary file given as CSV
-            raise TraceError(
-                f"{where}: cannot be read as csv (header line: {_first(exc)})"
-            ) from None
-        check_columns(columns, names, where)
+    with _open(path, where) as fh:
+        header, sep = _csv_header(fh, names, where, follow, poll_s, idle_s)
         row, pending, idle_since = 0, b"", time.monotonic()
         while True:
             data = fh.read(block_bytes)
@@ -302,18 +322,9 @@ def _csv_chunks(path, names, where, chunk_rows, follow, poll_s, idle_s) -> Itera
                 row += len(df)
 
 
-def read_chunks(
-    path: str | Path,
-    time_column: str = "time_s",
-    resistance_column: str = "resistance_ohm",
-    speed_column: str | None = None,
-    *,
-    chunk_rows: int = CHUNK_ROWS,
-    follow: bool = False,
-    poll_s: float = 0.2,
-    idle_s: float | None = None,
-) -> Iterator[Chunk]:
-    """The rows of a trace file, ``chunk_rows`` at a time (module docstring)."""
+def _checked(path, time_column, resistance_column, speed_column, follow):
+    """(path, where, names, format) of a trace file: refused if it is no file, of an unknown
+    format, or asks one column twice."""
     p = Path(path)
     where = f"trace {str(path)!r}"
     suffix = p.suffix.lower()
@@ -330,7 +341,45 @@ def read_chunks(
                 f"{where}: --follow reads a CSV file as it grows; a Parquet file cannot be read "
                 "before its writer closes it"
             )
-        return _parquet_chunks(p, names, where, chunk_rows)
+        return p, where, names, "parquet"
     if suffix in CSV_SUFFIXES:
-        return _csv_chunks(p, names, where, chunk_rows, follow, poll_s, idle_s)
+        return p, where, names, "csv"
     raise TraceError(f"{where}: unknown format {suffix or '(none)'!r}; give .csv or .parquet")
+
+
+def check_trace_file(
+    path: str | Path,
+    time_column: str = "time_s",
+    resistance_column: str = "resistance_ohm",
+    speed_column: str | None = None,
+    *,
+    follow: bool = False,
+) -> None:
+    """Refuse (TraceError, the line :func:`read_chunks` would give) what can be told of a trace
+    file without reading its rows: it exists, is readable, of a known format, its columns are
+    there (a Parquet footer, a CSV header line; a file being followed may not have its header
+    yet, and is not waited for). Cheap: run it before anything long."""
+    p, where, names, kind = _checked(path, time_column, resistance_column, speed_column, follow)
+    if kind == "parquet":
+        _parquet_file(p, names, where)
+    elif not follow:
+        with _open(p, where) as fh:
+            _csv_header(fh, names, where, False, 0.0, None)
+
+
+def read_chunks(
+    path: str | Path,
+    time_column: str = "time_s",
+    resistance_column: str = "resistance_ohm",
+    speed_column: str | None = None,
+    *,
+    chunk_rows: int = CHUNK_ROWS,
+    follow: bool = False,
+    poll_s: float = 0.2,
+    idle_s: float | None = None,
+) -> Iterator[Chunk]:
+    """The rows of a trace file, ``chunk_rows`` at a time (module docstring)."""
+    p, where, names, kind = _checked(path, time_column, resistance_column, speed_column, follow)
+    if kind == "parquet":
+        return _parquet_chunks(p, names, where, chunk_rows)
+    return _csv_chunks(p, names, where, chunk_rows, follow, poll_s, idle_s)
