@@ -12,6 +12,9 @@ model, the shipped stretch ratios ``BIAS_RATIO``, 20 records of 6 stretches of 2
 final constant stretch of 60 s, 0.2 % noise) on the acceptance bank (``BANK_SEED``) and on
 :data:`REPLICATION_SEEDS` more banks of 72 states drawn alike, which informed nothing. The four
 seeds were fixed before any of their banks was drawn; every bank is reported, none left out.
+A bank's records are drawn with its seed + 1, as the study's are, which is also the next
+bank's seed: the records of one bank and the states of the next share a random stream (each
+bank's own figures are unaffected; consecutive seeds were kept as fixed beforehand).
 
 Per bank and pooled: changes found within one window, spurious changes, stretches with F_r
 within 1 %, regime right for stretches of 2 s or more, 90 % coverage; the pooled shares with a
@@ -106,6 +109,7 @@ def main() -> None:
     from monitor_bias import markdown
 
     from signatelec.estimation.persistence import default_model
+    from signatelec.io import write_bytes_atomic
     from signatelec.studies.monitor_metrics import acceptance_figures
     from signatelec.studies.monitor_records import BANK_SEED
 
@@ -181,7 +185,7 @@ def main() -> None:
         f"CPU {time.process_time() - start:.0f} s.",
         "",
     ]
-    Path(args.report).write_text("\n".join(lines))
+    write_bytes_atomic(args.report, "\n".join(lines).encode())
     print(f"wrote {args.report}")
 
 

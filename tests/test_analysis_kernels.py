@@ -16,7 +16,7 @@ import pytest
 from scipy import fft as sfft
 from scipy import signal
 
-from signatelec.estimation.analysis import _band_means, _line_fit, analyse_windows, band_mean
+from signatelec.estimation.analysis import _line_fit, analyse_windows, band_mean, band_means
 from signatelec.estimation.harmonic_fit import (
     _centred,
     _row_sums,
@@ -104,7 +104,7 @@ def test_band_means_are_band_mean():
     p = rng.random((4, 245)) * 10.0 ** rng.uniform(-3, 3, (4, 245))
     lo = rng.uniform(-200.0, 25500.0, (4, 6))
     hi = lo + rng.choice([1.0, 50.0, 3000.0], (4, 6))
-    out = _band_means(f, p, lo, hi)
+    out = band_means(np.tile(f, 4), p.ravel(), np.arange(5) * f.size, lo, hi)
     empty = np.isnan(out)
     assert empty.any() and not empty.all()
     for w in range(4):
@@ -167,3 +167,16 @@ def test_windows_recover_known_harmonic_series():
         scale = np.abs(c[w]).sum()
         assert np.max(np.abs(a.coefficients - c[w])) < 3e-6 * scale
         assert a.level_ohm == pytest.approx(level[w], abs=3e-6 * scale)
+
+
+def test_no_rows_and_no_harmonic_below_nyquist():
+    """No windows give no analyses; a speed whose ball-pass frequency lies far above Nyquist
+    finds no ripple at once (its candidate grid, at a step set by the highest harmonic below
+    Nyquist, does not exist: it had been built at 1 Hz steps up to the expected frequency,
+    12 GB at 1e11 rad/s)."""
+    from signatelec.estimation.analysis import analyse_windows
+    from signatelec.measurement.ripple import find_ripple
+
+    assert analyse_windows(np.empty((0, 4000)), 20000.0, 500.0) == []
+    trace = 1.0 + 0.01 * np.random.default_rng(0).standard_normal(4000)
+    assert find_ripple(trace, 20000.0, 1e11).status == "none"

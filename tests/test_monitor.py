@@ -562,3 +562,32 @@ def test_acceptance_figures_follow_the_acceptance_definitions():
     assert f["load_error_max"] == pytest.approx(0.02)
     assert (f["long_stretches"], f["regime_right"]) == (3, pytest.approx(2 / 3))
     assert f["coverage_epsilon"] == pytest.approx(3 / 4)
+
+
+def test_ctrl_c_while_measuring_features_leaves_no_window_without_estimate(
+    model_file, tiles, tmp_path, monkeypatch
+):
+    """Ctrl-C that lands while a batch of windows' features is measured (--follow) keeps those
+    windows waiting: each window written as ``ok`` carries its estimate (the rows had left the
+    queue before their features were measured, and 80 ``ok`` windows had none)."""
+    import signatelec.estimation.monitor as monitor
+    from signatelec.estimation.persistence import load_model
+
+    t, r, _ = _record(tiles, [("low", 24.0)], seed=5)  # 480 windows: batches of 100 as read
+    path = _write(tmp_path / "trace.csv", t, r)
+    measured = monitor.window_features
+    calls = []
+
+    def interrupted_once(analyses):
+        calls.append(len(analyses))
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return measured(analyses)
+
+    monkeypatch.setattr(monitor, "window_features", interrupted_once)
+    settings = MonitorSettings(omega_rad_s=OMEGA, hop_s=0.05, follow=True, follow_idle_s=0.3)
+    table = monitor_trace(path, load_model(model_file), settings)
+    windows = table.frame()
+    ok = windows[windows.status == "ok"]
+    assert table.interrupted and len(calls) >= 2 and len(ok) > 0
+    assert not ok["radial_load_n"].isna().any()

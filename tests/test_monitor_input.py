@@ -337,3 +337,14 @@ def test_idle_must_be_finite_and_too_short_in_grammar(tmp_path):
     path = tmp_path / "one.parquet"
     pd.DataFrame({"time_s": [0.0], "resistance_ohm": [3e-3]}).to_parquet(path)
     assert "1 sample, shorter than one --window of 0.2 s" in _refused(path, omega_rad_s=OMEGA)
+
+
+def test_evidence_settings_accept_numpy_numbers():
+    """Settings given as numpy scalars (a hop read from a table, a rate from an array) are
+    numbers like any other: the same stretches as with Python floats."""
+    windows = _windows(300, 0.2, 0.2, shift_at=150)
+    as_python = stretches_and_changes(windows, 0.2, 0.1, 0.05)
+    as_numpy = stretches_and_changes(windows, np.float32(0.2), np.int64(1) / 10, np.float64(0.05))
+    assert [s["start_s"] for s in as_numpy[0]] == [s["start_s"] for s in as_python[0]]
+    with pytest.raises(ValueError, match="--hop True"):
+        stretches_and_changes(windows, True, 0.1, 0.05)

@@ -115,15 +115,19 @@ def _sample_times(n: int, fs: float) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 
 @njit(cache=True, error_model="numpy")
-def _band_means(f: np.ndarray, p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """:func:`band_mean` of each row of ``p`` (over ``f``) in the bands [lo, hi) of its row
-    (rows, bands), compiled; NaN where no bin is in a band (the caller interpolates there)."""
-    out = np.empty(lo.shape)
-    for w in range(lo.shape[0]):
-        for b in range(lo.shape[1]):
-            i = np.searchsorted(f, lo[w, b])
-            j = np.searchsorted(f, hi[w, b])
-            out[w, b] = pairwise_sum(p[w, i:j]) / (j - i) if j > i else np.nan
+def band_means(f, p, start, lo, hi) -> np.ndarray:
+    """:func:`band_mean` of each row's spectrum over each band
+    [lo, hi) (the rows' spectra end to end in ``f``, ``p``: row w at start[w]:start[w + 1]);
+    NaN where no bin is in a band."""
+    rows, bands = lo.shape
+    out = np.empty((rows, bands))
+    for w in range(rows):
+        fw = f[start[w] : start[w + 1]]
+        pw = p[start[w] : start[w + 1]]
+        for b in range(bands):
+            i = np.searchsorted(fw, lo[w, b])
+            j = np.searchsorted(fw, hi[w, b])
+            out[w, b] = pairwise_sum(pw[i:j]) / (j - i) if j > i else np.nan
     return out
 
 
@@ -387,6 +391,8 @@ def analyse_windows(
     if not fs > 0.0 or not math.isfinite(fs):
         raise ValueError(f"sample_rate_hz = {sample_rate_hz!r}: must be a finite rate > 0")
     omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float), (x.shape[0],))
+    if x.shape[0] == 0:
+        return []
     return _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
 
 
@@ -439,7 +445,8 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
     half = np.arange(1, n_harmonics + 1) - 0.5  # the band of harmonic k: (k -+ 0.5) f_bp
     for idx, freq, (p, p_res) in welch_rows((detrended, residual), fs, f_bp, passes_per_segment):
         lo, hi = half * f_bp[idx, None], (half + 1.0) * f_bp[idx, None]
-        noise_density[idx] = _band_means(freq, p_res, lo, hi)
+        start = np.arange(len(idx) + 1) * freq.size  # the rows share one grid
+        noise_density[idx] = band_means(np.tile(freq, len(idx)), p_res.ravel(), start, lo, hi)
         for i, w in enumerate(idx):
             psd_f[w], psd[w], residual_psd[w] = freq, p[i], p_res[i]
     for w, j in np.argwhere(np.isnan(noise_density)):  # bands without a bin

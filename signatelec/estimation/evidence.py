@@ -56,6 +56,7 @@ regime or of condition (the probability that the two stretches' classes differ).
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 import pandas as pd
@@ -421,7 +422,9 @@ def check_settings(hop_s: float, false_alarm_per_hour: float, load_threshold: fl
         ("--false-alarm-rate", false_alarm_per_hour, 0.0, 3600.0),
         ("--load-threshold", load_threshold, 0.0, 10.0),
     ):
-        if not (isinstance(value, int | float) and lo < value <= hi):
+        if not (
+            isinstance(value, numbers.Real) and not isinstance(value, bool) and lo < value <= hi
+        ):
             raise ValueError(f"{name} {value!r}: must be in ({lo:g}, {hi:g}]")
 
 

@@ -66,6 +66,7 @@ from signatelec.estimation.analysis import (
     STATISTICS,
     TraceAnalysis,
     analysis_of,
+    band_means,
     band_power,
     debiased_amplitudes,
 )
@@ -101,23 +102,6 @@ def shape_stats(w: np.ndarray) -> tuple[float, float, float, float]:
     span = wmax - wmin if wmax > wmin else 1.0
     asym = 0.0 if (flat or wmax <= wmin) else (wmax + wmin) / span
     return crest, skew, kurt, asym
-
-
-@njit(cache=True, error_model="numpy")
-def _band_means(f, p, start, lo, hi) -> np.ndarray:
-    """:func:`~signatelec.estimation.analysis.band_mean` of each row's spectrum over each band
-    [lo, hi) (the rows' spectra end to end in ``f``, ``p``: row w at start[w]:start[w + 1]);
-    NaN where no bin is in a band."""
-    rows, bands = lo.shape
-    out = np.empty((rows, bands))
-    for w in range(rows):
-        fw = f[start[w] : start[w + 1]]
-        pw = p[start[w] : start[w + 1]]
-        for b in range(bands):
-            i = np.searchsorted(fw, lo[w, b])
-            j = np.searchsorted(fw, hi[w, b])
-            out[w, b] = pairwise_sum(pw[i:j]) / (j - i) if j > i else np.nan
-    return out
 
 
 @njit(cache=True, error_model="numpy")
@@ -187,7 +171,7 @@ class _Batch:
         """:func:`~signatelec.estimation.analysis.band_power` of each row's spectrum ``p``
         (:attr:`psd` or :attr:`residual_psd`) over the bands [lo, hi) (Hz, rows x bands)."""
         hi = np.minimum(hi, self.freq[self.start[1:] - 1][:, None])
-        mean = _band_means(self.freq, p, self.start, lo, hi)
+        mean = band_means(self.freq, p, self.start, lo, hi)
         power = np.where(hi > lo, mean * (hi - lo), 0.0)
         for w, b in zip(*np.nonzero(np.isnan(power)), strict=True):
             # no bin in the band: its centre interpolated

@@ -385,8 +385,8 @@ class _Windows:
         if not self.unmeasured:
             return
         rows, analyses = zip(*self.unmeasured, strict=True)
-        self.unmeasured = []
         table = window_features(analyses)
+        self.unmeasured = []  # (after: a Ctrl-C while measuring leaves them to be measured)
         column = _feature_columns(analyses[0].n_harmonics)
         kept = table[:, [column[name] for name in KEPT_FEATURES]].tolist()
         snr = table[:, column["harmonic_snr"]].tolist()

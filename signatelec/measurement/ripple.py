@@ -237,8 +237,11 @@ def find_ripple(
     # the searches: the wide band, and the comb of harmonics near the expected frequency
     lo_hz, hi_hz = WIDE_BAND[0] * f_exp, min(WIDE_BAND[1] * f_exp, f_max)
     ks = [k for k in range(1, n_harmonics + 1) if k * f_exp * (1 + SEARCH_REL) < f_max]
-    step = 1.0 / (8.0 * duration * ks[-1]) if ks else 1.0
-    cand = np.arange(f_exp * (1 - SEARCH_REL), f_exp * (1 + SEARCH_REL) + step, step)
+    # no harmonic below Nyquist: no comb (and no grid, whose step would not follow the trace)
+    step = 1.0 / (8.0 * duration * ks[-1]) if ks else math.inf
+    cand = (
+        np.arange(f_exp * (1 - SEARCH_REL), f_exp * (1 + SEARCH_REL) + step, step) if ks else None
+    )
     # z is read up to the highest of them (and the next bin, for interpolation and vertex)
     reach = max(hi_hz, ks[-1] * float(cand[-1]) if ks else 0.0)
     half_width = max(FLOOR_HALF_WIDTH * f_exp, FLOOR_MIN_CELLS / duration)
