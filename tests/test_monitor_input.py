@@ -178,14 +178,14 @@ def test_non_overlapping_windows_kept():
     [
         ("found", 100.0, OMEGA, None),
         ("none", 100.0, OMEGA, "no ball-pass line"),
-        ("found", 2.0, OMEGA, "no ball-pass line"),
+        # a harmonic SNR of 2 in every window is no warning: held-out DEM states whose ripple
+        # lies below 0.2 % noise show 2-7 (as white noise does) and are read right
+        ("found", 2.0, OMEGA, None),
         ("found", 100.0, 1000.0, "outside the training range 250-750"),
     ],
 )
 def test_stretch_qualified(ripple, snr, omega, warned):
-    """A stretch of windows without a ball-pass line (the screen's, or the window's harmonics
-    at its speed below 5 sigma: a trace of white noise at a bearing's level, or a speed column
-    3 % off between two screens, was a stretch of regime probability 1.00) or at a speed
+    """A stretch of windows without a ball-pass line (the ripple screen's verdict) or at a speed
     outside the model's training range is not a confident regime call, and the summary's
     notes say why."""
     table = _windows(100, 0.2, 0.2, ripple=ripple, omega=omega, snr=snr)
@@ -251,11 +251,12 @@ def test_time_in_milliseconds_named(tmp_path):
 
 
 def test_alarm_into_a_stretch_without_line_not_confident():
-    """A 10 % load step into windows whose harmonics vanish at their speed (a speed column gone
+    """A 10 % load step into windows where the ripple screen finds no line (a speed gone
     wrong): the alarm is raised, marked not confident; the step between two clean stretches
     stays confident."""
-    for snr, confident in ((100.0, True), (np.r_[np.full(150, 100.0), np.full(150, 2.0)], False)):
-        table = _windows(300, 0.2, 0.2, seed=3, shift_at=150, snr=snr)
+    lost = np.r_[np.full(150, "found"), np.full(150, "none")]
+    for ripple, confident in (("found", True), (lost, False)):
+        table = _windows(300, 0.2, 0.2, seed=3, shift_at=150, ripple=ripple)
         stretches, _, alarms = stretches_and_changes(table, 0.2)
         qualify(stretches, table)
         qualify_alarms(alarms, stretches)

@@ -62,9 +62,10 @@ def qualify(
 ) -> list:
     """Mark, in place, each stretch whose windows cannot carry a confident answer: its
     ``warnings`` (what ``estimate`` warns of for one trace: no ball-pass line, so the speed is
-    unchecked and no regime call is confident; here also a window whose harmonics at its speed
-    stand below :data:`~signatelec.estimation.monitor.TRACK_MIN_SNR`, a speed column gone
-    wrong between two ripple screens; a speed outside the model's training range,
+    unchecked and no regime call is confident (the screen's verdict, not the window's harmonic
+    SNR: held-out DEM states whose ripple lies below 0.2 % noise give SNR 2-7, as white noise
+    does, and were read right; an SNR rule flagged 32 of 140 acceptance stretches, all right);
+    a speed outside the model's training range,
     an extrapolation; features as atypical as the 1 % most atypical training traces; windows
     longer than the training windows, ``window_s`` above
     :data:`~signatelec.estimation.monitor.WINDOW_S`, whose length-dependent features
@@ -74,7 +75,6 @@ def qualify(
     the warnings as notes naming their stretch (the window's length: one note for all)."""
     from signatelec.estimation.domain import WARN_SCORE
     from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
-    from signatelec.estimation.monitor import TRACK_MIN_SNR
 
     lo, hi = (ranges or {}).get("omega_rad_s", (None, None))
     ok = windows[windows["status"] == "ok"] if "status" in windows else windows
@@ -84,15 +84,12 @@ def qualify(
         inside = ok[(ok["start_s"] >= s["start_s"] - 1e-9) & (ok["end_s"] <= s["end_s"] + 1e-9)]
         warnings = []
         if len(inside):
-            no_line = inside["ripple"] == "none"
-            if "harmonic_snr" in inside:
-                no_line |= inside["harmonic_snr"] < TRACK_MIN_SNR
-            if no_line.mean() >= 0.5:
+            if (inside["ripple"] == "none").mean() >= 0.5:
                 warnings.append(
-                    "no ball-pass line at the given speed in most of its windows (harmonic SNR "
-                    f"below {TRACK_MIN_SNR:g}): the speed is unchecked or wrong and no regime "
-                    "call is confident (a trace without ripple, a wrong speed, or a state at a "
-                    "zero of the ripple's first harmonic)"
+                    "no ball-pass line at the given speed in most of its windows (the ripple "
+                    "screen's): the speed is unchecked or wrong and no regime call is confident "
+                    "(a trace without ripple, a wrong speed, or a state whose ripple lies below "
+                    "the noise)"
                 )
             omega = float(inside["omega_rad_s"].median())
             if lo is not None and not lo <= omega <= hi:
