@@ -275,6 +275,10 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
         k, t = _best_split(cum_p, cum_px, a, b, MIN_SEGMENT)
         return k, t / factor
 
+    def p_value_of(a, b, t):
+        """The split's p-value, Bonferroni-corrected over the b - a - 1 splits of [a, b)."""
+        return min(1.0, (b - a - 1) * stats.chi2.sf(t, d))
+
     found, todo = [], [(0, n)]
     threshold = stats.chi2.isf(alpha_per_split, d)
     while todo:
@@ -282,8 +286,7 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
         k, t = best(a, b)
         if k < 0 or not t > threshold:
             continue
-        p_value = min(1.0, (b - a - 1) * stats.chi2.sf(t, d))
-        found.append((k, p_value))
+        found.append((k, p_value_of(a, b, t)))
         todo += [(a, k), (k, b)]
     found.sort()
     # place each change again between its neighbours (binary segmentation's first splits
@@ -294,7 +297,7 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
         k, t = best(edges[i], edges[i + 2])
         if k > 0:
             edges[i + 1] = k
-            p_value = min(p_value, min(1.0, (edges[i + 2] - edges[i] - 1) * stats.chi2.sf(t, d)))
+            p_value = min(p_value, p_value_of(edges[i], edges[i + 2], t))
         placed.append((edges[i + 1], p_value))
     return placed
 

@@ -46,7 +46,7 @@ class FlatForest:
     def __init__(self, models):
         feature, threshold, missing_left, left, right, leaf, value = ([] for _ in range(7))
         roots, outputs, baselines = [], [], []
-        offset, out, depth = 0, 0, 0
+        offset, out = 0, 0
         for m in models:
             k = m.n_trees_per_iteration_
             baselines.append(np.asarray(m._baseline_prediction, dtype=float).ravel())
@@ -65,7 +65,6 @@ class FlatForest:
                     leaf.append(nodes["is_leaf"].astype(bool))
                     value.append(nodes["value"])
                     offset += len(nodes)
-                    depth = max(depth, int(nodes["depth"].max()))
             out += k
         cat = np.concatenate
         self.feature, self.threshold = cat(feature).astype(np.int64), cat(threshold)
@@ -73,11 +72,9 @@ class FlatForest:
         self.left, self.right = cat(left), cat(right)
         self.roots, self.outputs = np.asarray(roots), np.asarray(outputs)
         self.baseline = cat(baselines)
-        self.n_outputs = out
-        self.depth = depth
 
     def raw(self, X: np.ndarray) -> np.ndarray:
-        """Raw predictions (before the link), shape (n_samples, n_outputs)."""
+        """Raw predictions (before the link), one column per model and class."""
         return _walk(
             np.ascontiguousarray(X, dtype=np.float64),
             self.feature,

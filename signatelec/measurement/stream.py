@@ -153,9 +153,7 @@ def _parquet_file(path, names, where):
         # memory held grew by ~0.25 MB per second of a 50 kHz trace)
         pf = pq.ParquetFile(path, pre_buffer=False)
     except (OSError, ValueError) as exc:
-        raise TraceError(
-            f"{where}: cannot be read as parquet ({str(exc).splitlines()[0]})"
-        ) from None
+        raise TraceError(f"{where}: cannot be read as parquet ({_first(exc)})") from None
     check_columns(pf.schema_arrow.names, names, where)
     return pf
 
