@@ -50,18 +50,6 @@ SHARES = {
 }
 
 
-def stretch_hits(truth: pd.DataFrame) -> pd.DataFrame:
-    """Per stretch: F_r within 1 %, regime right (NaN under 2 s), each interval covering."""
-    out = pd.DataFrame({"state": truth.state, "length_s": truth.length_s})
-    out["load_within_1pct"] = (truth.radial_load_n_est / truth.radial_load_n - 1).abs() <= 0.01
-    right = (truth.regime_est == truth.regime).astype(float)
-    out["regime_right"] = right.where(truth.length_s >= 2.0)
-    for target in ("radial_load_n", "epsilon", "clearance_m"):
-        t = truth[target]
-        out[f"coverage_{target}"] = (truth[f"{target}_low"] <= t) & (t <= truth[f"{target}_high"])
-    return out
-
-
 def bootstrap_interval(hits: pd.DataFrame, column: str, rng: np.random.Generator) -> tuple:
     """90 % percentile interval of the share of ``column`` over stretches, resampling the
     states (with all their stretches) within each bank."""
@@ -110,7 +98,7 @@ def main() -> None:
 
     from signatelec.estimation.persistence import default_model
     from signatelec.io import write_bytes_atomic
-    from signatelec.studies.monitor_metrics import acceptance_figures
+    from signatelec.studies.monitor_metrics import acceptance_figures, stretch_hits
     from signatelec.studies.monitor_records import BANK_SEED
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
