@@ -18,10 +18,13 @@ training run, the model's features as float32) and the example trace
 ``datasets/example_trace.csv``. ``--quick`` (a pipeline check, ~30 s): 24 training and 6 test
 runs of 0.1 s, 2 folds. ``--ship-paper`` (alone: no study) generates the paper-fidelity runs of
 ``datasets/load_state_paper.toml`` into OUT/runs_paper and of
-``datasets/load_state_paper_boundary.toml`` into OUT/runs_load_state_paper_boundary (~0.4 s of
-CPU per run, 12 min for the 1800) and writes the default model's second table
-``signatelec/estimation/data/load_state_paper_features.parquet``
-(:func:`signatelec.studies.load_state.paper_table`); the study's default-model figures read it.
+``datasets/load_state_paper_boundary.toml`` and ``datasets/load_state_paper_fold.toml`` into
+OUT/runs_<dataset name> (~0.4 s of CPU per run, 16 min for the 2400) and writes the default
+model's second table ``signatelec/estimation/data/load_state_paper_features.parquet``
+(:func:`signatelec.studies.load_state.paper_table`), and its stretch model's table
+``signatelec/estimation/data/load_state_stretch_features.parquet``
+(:func:`signatelec.studies.load_state.stretch_table`, ~4 min more); the study's default-model
+figures read them.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from signatelec.estimation.training import DEFAULT_TABLE, PAPER_TABLE
+from signatelec.estimation.training import DEFAULT_TABLE, PAPER_TABLE, STRETCH_TABLE
 from signatelec.studies.load_state import run_study, ship_paper_table
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,6 +42,7 @@ SPEC = ROOT / "datasets" / "load_state.toml"
 PAPER_SPECS = [
     ROOT / "datasets" / "load_state_paper.toml",
     ROOT / "datasets" / "load_state_paper_boundary.toml",
+    ROOT / "datasets" / "load_state_paper_fold.toml",
 ]
 DEFAULT_OUT = ROOT / "out" / "load_state"
 DEFAULT_REPORT = ROOT / "docs" / "load_state"
@@ -65,7 +69,8 @@ def main(argv: list[str] | None = None) -> dict:
     args = parser.parse_args(argv)
     if args.ship_paper:
         log = lambda msg: print(msg, flush=True)  # noqa: E731
-        return {"paper_table": ship_paper_table(Path(args.out), PAPER_SPECS, PAPER_TABLE, log)}
+        table = ship_paper_table(Path(args.out), PAPER_SPECS, PAPER_TABLE, STRETCH_TABLE, log)
+        return {"paper_table": table, "stretch_table": STRETCH_TABLE}
     return run_study(
         args.out,
         args.report,

@@ -28,7 +28,10 @@ windows do not pass for independent evidence. Each change found is then placed a
 same statistic between its neighbours. Every change point is reported; :func:`alarms` says
 which are material.
 
-**Stretches** (:func:`combine_stretch`): the windows between two changes. A regression target
+**Stretches** (:func:`combine_stretch`): the windows between two changes. With the model's
+stretch model (:mod:`~signatelec.estimation.stretch`), F_r, epsilon, clearance and the regime
+are its estimates from the windows' MEAN features, and the model's error part below is its own
+interval's standard deviation w. Without one, a regression target
 (F_r on a log scale, epsilon, clearance) is the mean of the window estimates, a model of the
 window means whose error has two parts. The windows' scatter about their mean (noise), divided
 by the effective number of independent windows n_eff = n / (1 + 2 sum_k (1 - k / (K + 1))
@@ -63,19 +66,21 @@ import pandas as pd
 from numba import njit
 from scipy import stats
 
+from signatelec.estimation.stretch import stretch_estimate
+
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)
 #: The model's error of a state (shared by its windows) in units of the windows' interval
 #: standard deviation, per target and estimated regime: Mondrian split-conformal 90 % quantile
 #: over the stretches of the calibration records of ``signatelec study monitor`` estimated in
-#: that regime (docs/monitor: held-out paper-fidelity DEM states drawn apart from the
-#: acceptance records' and from the design states that placed training runs, default model,
-#: 0.2 s windows); ``"any"``: over all of them, for a
-#: stretch without a regime.
+#: that regime (docs/monitor: 288 held-out paper-fidelity DEM states drawn apart from the
+#: acceptance records' and from the design states that placed training runs, in records drawn
+#: as the acceptance records are; default model with its stretch model, 0.2 s windows);
+#: ``"any"``: over all of them, for a stretch without a regime.
 BIAS_RATIO = {
-    "radial_load_n": {"any": 0.461, "clearance": 0.957, "preload": 0.430, "zero": 0.178},
-    "epsilon": {"any": 0.503, "clearance": 1.316, "preload": 0.437, "zero": 0.056},
-    "clearance_m": {"any": 0.562, "clearance": 1.496, "preload": 0.469, "zero": 0.076},
+    "radial_load_n": {"any": 0.364, "clearance": 0.393, "preload": 0.291, "zero": 0.373},
+    "epsilon": {"any": 0.301, "clearance": 0.323, "preload": 0.201, "zero": 0.367},
+    "clearance_m": {"any": 0.380, "clearance": 0.545, "preload": 0.462, "zero": 0.059},
 }
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"
@@ -339,11 +344,12 @@ def change_points(
     return [(int(rows[k]), 1.0 - p_value) for k, p_value in second]
 
 
-def combine_target(values, low, high, log: bool, bias_ratio: float) -> dict:
+def combine_target(values, low, high, log: bool, bias_ratio: float, model=None) -> dict:
     """Mean of the window estimates with its interval (module docstring): ``value``, ``low``,
     ``high``, ``se_noise`` (the noise part's standard error), ``n_eff`` and ``window_sd`` (the
     windows' interval standard deviation, which ``bias_ratio`` multiplies), the last two on
-    the combining scale (log for ``log``)."""
+    the combining scale (log for ``log``). ``model``: the stretch model's (value, low, high),
+    which give the value and the standard deviation that ``bias_ratio`` multiplies instead."""
     y = np.asarray(values, float)
     lo, hi = np.asarray(low, float), np.asarray(high, float)
     if log:
@@ -353,6 +359,9 @@ def combine_target(values, low, high, log: bool, bias_ratio: float) -> dict:
     scatter2 = float(np.var(y, ddof=1)) if n > 1 else 0.0
     window_sd = math.sqrt(float(np.mean(((hi - lo) / (2.0 * Z90)) ** 2)))
     centre = float(y.mean())
+    if model is not None:  # the stretch model's estimate and interval
+        m = np.log(np.asarray(model, float)) if log else np.asarray(model, float)
+        centre, window_sd = float(m[0]), float(m[2] - m[1]) / (2.0 * Z90)
     se_noise = math.sqrt(scatter2 / n_eff)
     half = Z90 * math.hypot(bias_ratio * window_sd, se_noise)
     out = {"value": centre, "low": centre - half, "high": centre + half}
@@ -377,9 +386,14 @@ def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None
     return {c.removeprefix(f"{name}_probability_"): float(q) for c, q in zip(pc, p, strict=True)}
 
 
-def combine_stretch(windows: pd.DataFrame, bias_ratio: dict | None = None) -> dict:
+def combine_stretch(
+    windows: pd.DataFrame, bias_ratio: dict | None = None, stretch_model=None
+) -> dict:
     """One stretch's estimate from its usable windows (``bias_ratio``: per target, per
-    estimated regime and :data:`ANY_REGIME`; default :data:`BIAS_RATIO`)."""
+    estimated regime and :data:`ANY_REGIME`; default :data:`BIAS_RATIO`). With a
+    ``stretch_model`` (:mod:`~signatelec.estimation.stretch`) that answers, the targets and the
+    regime are its estimates from the windows' mean features, each target's interval that of
+    the windows moved to its value (``estimated_from``: ``mean features``, else ``windows``)."""
     ratios = BIAS_RATIO if bias_ratio is None else bias_ratio
     out: dict = {"n_windows": int(len(windows))}
     classes = {}
@@ -390,6 +404,14 @@ def combine_stretch(windows: pd.DataFrame, bias_ratio: dict | None = None) -> di
             classes[name] = best
             classes[f"{name}_probability"] = probs[best]
             classes.update({f"{name}_probability_{k}": v for k, v in probs.items()})
+    est = stretch_estimate(windows, stretch_model, classes.get("condition"))
+    out["estimated_from"] = "windows" if est is None else "mean features"
+    if est is not None and "regime" in classes:
+        pc = [c for c in est if c.startswith("regime_probability_")]
+        probs = {c.removeprefix("regime_probability_"): float(est[c]) for c in pc}
+        best = max(probs, key=probs.get)
+        classes.update({"regime": best, "regime_probability": probs[best]})
+        classes.update({f"regime_probability_{k}": v for k, v in probs.items()})
     regime = classes.get("regime", ANY_REGIME)
     for target, scale in TARGET_SCALES.items():
         if target not in windows:
@@ -400,6 +422,7 @@ def combine_stretch(windows: pd.DataFrame, bias_ratio: dict | None = None) -> di
             windows[f"{target}_high"],
             scale == "log",
             ratios[target].get(regime, ratios[target][ANY_REGIME]),
+            None if est is None else [est[target], est[f"{target}_low"], est[f"{target}_high"]],
         )
         out[target] = c["value"]
         out[f"{target}_low"] = c["low"]
@@ -480,11 +503,12 @@ def stretches_and_changes(
     false_alarm_per_hour: float = FALSE_ALARM_PER_HOUR,
     load_threshold: float = LOAD_THRESHOLD,
     bias_ratio: dict | None = None,
+    stretch_model=None,
 ) -> tuple[list[dict], list[dict], list[dict]]:
     """(stretches, changes, alarms) of a window table (module docstring): every change point
     is a change (at ``false_alarm_per_hour``), described by its alarms, or by its F_r and
     epsilon when it raises none (a change below ``load_threshold`` within one regime).
-    ``bias_ratio``: as :func:`combine_stretch`'s."""
+    ``bias_ratio``, ``stretch_model`` (the model's ``stretch``): as :func:`combine_stretch`'s."""
     check_settings(hop_s, false_alarm_per_hour, load_threshold)
     good = usable(windows)
     if good.empty:
@@ -509,7 +533,7 @@ def stretches_and_changes(
         if inside.sum() >= 1:
             part = part[inside]
         s = {"start_s": bounds[i], "end_s": bounds[i + 1]}
-        s.update(combine_stretch(part, bias_ratio))
+        s.update(combine_stretch(part, bias_ratio, stretch_model))
         stretches.append(s)
     changes, alarm_list = [], []
     for k, t, before, after in zip(edges[1:-1], times, stretches[:-1], stretches[1:], strict=True):

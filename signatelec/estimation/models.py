@@ -437,7 +437,8 @@ class LoadStateModel:
     targets, coverage, ranges of the labels, of omega and of the level), the ``domain`` of
     its training traces (:class:`~signatelec.estimation.domain.Domain`: level range, in-domain
     score) and, when trained on condition labels, the ``condition`` model beside it; the
-    ``faulty`` model answers the load state where the condition model calls a fault."""
+    ``faulty`` model answers the load state where the condition model calls a fault, the
+    ``stretch`` model that of a stretch of windows from their mean features."""
 
     estimator: LoadStateEstimator
     features: list[str]
@@ -449,6 +450,10 @@ class LoadStateModel:
     #: The load-state model of a trace on which the condition model calls a defect or an
     #: unbalance (a :class:`LoadStateModel` trained on defective runs too), or None.
     faulty: object | None = None
+    #: The load state of a stretch of windows from their MEAN features (a
+    #: :class:`LoadStateModel` trained on stretches' mean features: the noise averaged, the
+    #: ripple's shape kept), which the monitor asks about a healthy stretch, or None.
+    stretch: object | None = None
 
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])

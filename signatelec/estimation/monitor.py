@@ -70,7 +70,8 @@ SCREEN_S = 0.5
 #: gone wrong is refused within this; screening every block cost ~1.4 ms per 0.2 s window at
 #: 50 kHz, more than the window's features.
 SCREEN_EVERY_S = 10.0
-#: Features kept per window beside the estimate (the change detector reads some).
+#: Features kept per window beside the estimate (the change detector reads some), before the
+#: model's own (:func:`kept_features`).
 KEPT_FEATURES = (
     "level_mean_ohm",
     "noise_rms_rel",
@@ -232,6 +233,12 @@ def _speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s:
     return None
 
 
+def kept_features(model: LoadStateModel) -> tuple[str, ...]:
+    """The features a window's row keeps: :data:`KEPT_FEATURES`, then the model's own (a
+    stretch's mean features are what its stretch model reads)."""
+    return tuple(dict.fromkeys([*KEPT_FEATURES, *model.features]))
+
+
 @functools.cache
 def _feature_columns(n_harmonics: int = N_HARMONICS) -> dict[str, int]:
     """Column of each feature in :func:`~signatelec.estimation.features.window_features`."""
@@ -388,11 +395,12 @@ class _Windows:
         table = window_features(analyses)
         self.unmeasured = []  # (after: a Ctrl-C while measuring leaves them to be measured)
         column = _feature_columns(analyses[0].n_harmonics)
-        kept = table[:, [column[name] for name in KEPT_FEATURES]].tolist()
+        names = kept_features(self.model)
+        kept = table[:, [column[name] for name in names]].tolist()
         snr = table[:, column["harmonic_snr"]].tolist()
         found = table[:, column["ball_pass_found_hz"]].tolist()
         for i, row in enumerate(rows):
-            row.update(zip(KEPT_FEATURES, kept[i], strict=True))
+            row.update(zip(names, kept[i], strict=True))
             if self.s.track_speed and snr[i] >= TRACK_MIN_SNR:
                 # the found line predicts the next window's speed (kinematics are linear in it)
                 self.tracked = found[i] / (expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP))

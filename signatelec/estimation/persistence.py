@@ -41,6 +41,7 @@ from signatelec.estimation.training import (
     DEFAULT_RECIPE,
     DEFAULT_TABLE,
     PAPER_TABLE,
+    STRETCH_TABLE,
     train_default_model,
 )
 from signatelec.io import cache_dir, write_bytes_atomic
@@ -196,9 +197,9 @@ def load_model(path: str | Path) -> LoadStateModel:
 def default_model_path(table: Path = DEFAULT_TABLE) -> Path:
     """The cache entry of the default model: one per release, feature set, model format,
     training recipe, scikit-learn and shipped tables (load state, paper-fidelity load state,
-    condition, calibration)."""
+    stretches, condition, calibration)."""
     digest = hashlib.sha256(table.read_bytes())
-    for shipped in (PAPER_TABLE, CONDITION_TABLE, CALIBRATION_TABLE):
+    for shipped in (PAPER_TABLE, STRETCH_TABLE, CONDITION_TABLE, CALIBRATION_TABLE):
         if shipped.is_file():
             digest.update(shipped.read_bytes())
     digest = digest.hexdigest()[:10]

@@ -85,6 +85,13 @@ TRAIN_KEY, ACCEPT_KEY, SCAN_KEYS = 100, 1, {"noise": 200, "length": 300}
 PAPER_WINDOWS = (0.05, 0.2)
 PAPER_KEY = 150
 PAPER_RUN_ID_OFFSET = 100000
+#: The stretch model's rows (:func:`stretch_table`), per paper-fidelity run: this many
+#: stretches, each of a number of windows drawn from :data:`STRETCH_WINDOWS` and one length
+#: drawn from :data:`STRETCH_LENGTHS_S` (spawn keys from :data:`STRETCH_KEY`).
+STRETCH_ROWS = 12
+STRETCH_WINDOWS = (3, 5, 10, 15, 25, 40)
+STRETCH_LENGTHS_S = (0.05, 0.1, 0.2)
+STRETCH_KEY = 170
 
 Log = Callable[[str], None]
 
@@ -265,23 +272,87 @@ def paper_table(runs: pd.DataFrame, run_id_offset: int = PAPER_RUN_ID_OFFSET) ->
     return shipped_rows(pd.DataFrame(rows))
 
 
-def ship_paper_table(out: Path, spec_paths: list[Path], ship_to: Path, log: Log = _quiet) -> Path:
+def stretch_table(runs: pd.DataFrame, run_id_offset: int = PAPER_RUN_ID_OFFSET) -> pd.DataFrame:
+    """The stretch model's rows from paper-fidelity runs: each the MEAN of the model's features
+    over the windows of one stretch, drawn as a monitor's stretch is (:data:`STRETCH_ROWS` per
+    run): n windows of one length at random offsets of the run's whole-pass tiling
+    (:func:`~signatelec.studies.monitor_records.whole_passes`: a steady state that lasts), all
+    measured with one :func:`train_draw` (white noise 0.05-1 %, drift, offset, quantisation),
+    each with its own noise. The window model learns single windows; a stretch's mean features
+    carry the ripple's shape with the noise averaged, which is what tells a state at the fold
+    of R(epsilon), the first-harmonic null or a regime boundary from its twins
+    (docs/monitor/twins.md). Rows as :func:`~signatelec.estimation.training.shipped_rows`
+    keeps them, with ``n_windows``."""
+    from signatelec.estimation.training import MODEL_FEATURES
+    from signatelec.studies.monitor_records import whole_passes
+
+    meter = MeasurementModel(sample_rate_hz=SAMPLE_RATE_HZ, quantisation_ohm=QUANTISATION_OHM)
+    rows = []
+    for run in runs.itertuples(index=False):
+        fs, omega = float(run.sample_rate_hz), float(run.omega_rad_s)
+        tile = whole_passes(np.asarray(run.resistance_clean_ohm, dtype=float), fs, omega)
+        for k in range(STRETCH_ROWS):
+            rng = _rng(STRETCH_KEY, run.trace_id, k)
+            d = train_draw(rng)
+            count = int(rng.choice(STRETCH_WINDOWS))
+            length = float(rng.choice(STRETCH_LENGTHS_S))
+            n = int(round(length * fs))
+            if n * expected_ball_pass_hz(omega) / fs < MIN_BALL_PASSES:
+                continue
+            reps = np.tile(tile, n // tile.size + 2)
+            feats = []
+            for _ in range(count):
+                o = int(rng.integers(tile.size))
+                f = trace_features(meter.measure(reps[o : o + n], d, rng), fs, omega)
+                feats.append([f[c] for c in MODEL_FEATURES])
+            rows.append(
+                {
+                    "run_id": int(run.trace_id) + run_id_offset,
+                    "length_s": length,
+                    "noise_fraction": d.noise_fraction,
+                    "radial_load_n": float(run.radial_load_n),
+                    "epsilon": float(run.epsilon),
+                    "clearance_m": float(run.clearance_m),
+                    "regime": str(run.regime),
+                    "n_windows": count,
+                    **dict(zip(MODEL_FEATURES, np.mean(feats, axis=0), strict=True)),
+                }
+            )
+    frame = pd.DataFrame(rows)
+    out = shipped_rows(frame)
+    out.insert(3, "n_windows", frame["n_windows"].astype(np.int16))
+    return out
+
+
+def _write_table(parts: list[pd.DataFrame], ship_to: Path, log: Log) -> None:
+    table = pd.concat(parts, ignore_index=True)
+    table["regime"] = table["regime"].astype(str).astype("category")
+    Path(ship_to).parent.mkdir(parents=True, exist_ok=True)
+    write_bytes_atomic(ship_to, table.to_parquet(index=False, compression="zstd"))
+    log(f"wrote {ship_to} ({Path(ship_to).stat().st_size / 1e3:.0f} kB, {len(table)} rows)")
+
+
+def ship_paper_table(
+    out: Path, spec_paths: list[Path], ship_to: Path, stretch_to: Path, log: Log = _quiet
+) -> Path:
     """Generate (or resume) the paper-fidelity runs of each of ``spec_paths`` into
     ``out/runs_<dataset name>`` (``out/runs_paper`` for the first) and write their
-    :func:`paper_table` rows, one after the other, to ``ship_to``."""
-    parts = []
+    :func:`paper_table` rows, one dataset after the other, to ``ship_to``, and their
+    :func:`stretch_table` rows to ``stretch_to``."""
+    parts, stretches = [], []
     for k, spec_path in enumerate(spec_paths):
         spec = spec_from_dict(tomllib.loads(Path(spec_path).read_text()), str(spec_path))
         d = Path(out) / ("runs_paper" if k == 0 else f"runs_{spec.name}")
         t0 = time.perf_counter()
         summary = generate_dataset(spec, d, workers=0, progress=log is not _quiet)
         log(f"generate {spec.name}: {summary.n_traces} traces, {time.perf_counter() - t0:.0f} s")
-        parts.append(paper_table(load_runs(d, log), (k + 1) * PAPER_RUN_ID_OFFSET))
-    table = pd.concat(parts, ignore_index=True)
-    table["regime"] = table["regime"].astype(str).astype("category")
-    Path(ship_to).parent.mkdir(parents=True, exist_ok=True)
-    write_bytes_atomic(ship_to, table.to_parquet(index=False, compression="zstd"))
-    log(f"wrote {ship_to} ({Path(ship_to).stat().st_size / 1e3:.0f} kB, {len(table)} rows)")
+        runs = load_runs(d, log)
+        parts.append(paper_table(runs, (k + 1) * PAPER_RUN_ID_OFFSET))
+        t0 = time.perf_counter()
+        stretches.append(stretch_table(runs, (k + 1) * PAPER_RUN_ID_OFFSET))
+        log(f"stretches of {spec.name}: {time.perf_counter() - t0:.0f} s")
+    _write_table(parts, ship_to, log)
+    _write_table(stretches, stretch_to, log)
     return Path(ship_to)
 
 

@@ -46,8 +46,10 @@ from signatelec.studies.monitor_records import (
 N_RECORDS = 20
 N_STRETCHES = 6
 CONSTANT_S = 60.0
-#: Records assembled from the calibration bank (no final constant stretch).
-N_CALIBRATION_RECORDS = 40
+#: Records assembled from the calibration bank, drawn as the acceptance records are (a final
+#: constant stretch too: a long stretch has almost no noise part, and a calibration without
+#: such stretches under-covers them): ~4 stretches a state.
+N_CALIBRATION_RECORDS = 160
 
 
 def run_records(
@@ -79,7 +81,7 @@ def run_records(
         path.unlink()
         windows = table.frame()
         stretches, changes, alarms = stretches_and_changes(
-            windows, settings.hop, bias_ratio=bias_ratio
+            windows, settings.hop, bias_ratio=bias_ratio, stretch_model=model.stretch
         )
         cpu += table.cpu_s
         seconds += noisy.size / SAMPLE_RATE_HZ
@@ -131,13 +133,13 @@ def run_study(
         CALIBRATION_SEED,
     )
     n_cal = 2 if quick else N_CALIBRATION_RECORDS
-    cal_truth, _, _ = run_records(calibration, model, work, n_cal, None, log, CALIBRATION_SEED + 1)
+    const = 10.0 if quick else CONSTANT_S
+    cal_truth, _, _ = run_records(calibration, model, work, n_cal, const, log, CALIBRATION_SEED + 1)
     ratios = calibrate_bias_ratio(cal_truth)
     cross_validation = cross_validated_coverage(cal_truth)
     if log:
         log(f"calibrated bias ratios: {ratios}")
     n = 2 if quick else N_RECORDS
-    const = 10.0 if quick else CONSTANT_S
     truth, changes, info = run_records(bank, model, work, n, const, log, bias_ratio=ratios)
     info["bias_ratio"] = ratios
     info["bank"] = {"states": len(bank), "regimes": bank.regime.value_counts().to_dict()}

@@ -455,21 +455,23 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "",
         "## Stretch intervals",
         "",
-        "A stretch's 90 % interval is z90 (b^2 w^2 + s^2 / n_eff)^(1/2) on the scale the windows "
+        "A stretch's estimate is the stretch model's, asked about the windows' mean features "
+        "(the default model's; the windows' estimates combined where it does not answer). Its "
+        "90 % interval is z90 (b^2 w^2 + s^2 / n_eff)^(1/2) on the scale the windows "
         "are combined on (log F_r, epsilon, clearance): s^2 / n_eff the variance of the mean of "
         "the window estimates (their scatter over the effective number of independent windows, "
         "from their autocorrelation), and b w the model's error for the state, which its "
-        "windows share and which does not shrink: w the root-mean-square standard deviation "
-        "of the windows' own intervals, b a ratio per target and per regime the stretch is "
+        "windows share and which does not shrink: w the standard deviation of the stretch "
+        "model's own interval (else the root-mean-square one of the windows' intervals), b a "
+        "ratio per target and per regime the stretch is "
         "estimated in, calibrated by Mondrian split conformal prediction on other records (the "
         "90 % quantile of the ratio each stretch needs, among the calibration stretches "
         "estimated in the same regime; Vovk et al. 2005, ch. 4.5). One ratio per target "
-        "covered the mix of regimes but not each: too wide in the zero regime, too narrow in "
-        "the others (table below, cross-validated on the calibration records; a preloaded "
-        "state estimated in the clearance regime takes that regime's ratio). The "
-        "windows' own intervals are calibrated for single 50 ms windows at every noise of "
-        "training and bound a state's model error loosely; the former combination kept all of "
-        "their variance beyond the scatter as model error (coverage 100 %, 100 %, 98.6 %).",
+        "covered the mix of regimes but not each (table below, cross-validated by state on "
+        "the calibration records; a preloaded state estimated in the clearance regime takes "
+        "that regime's ratio). The coverage is a state's: a few states at the fold of "
+        "R(epsilon) and the first-harmonic null carry errors several times their interval, "
+        "and a bank of ~60 states holds more or fewer of them (docs/monitor/replication.md).",
         "",
         f"**Calibration records** (not the acceptance records): "
         f"{info['calibration']['states']} other held-out states drawn alike from another seed "
@@ -477,8 +479,9 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "states only if its calibration states are exchangeable with them: the design "
         "states, which chose where training runs went, no longer are; on them the ratio of "
         "the clearance regime for F_r had fallen from 0.90 to 0.67), DEM runs as above, "
-        "assembled into records of 6 stretches of "
-        f"2-10 s with other draws; {info['calibration']['stretches']} stretches. Ratios b: "
+        "assembled into records as the acceptance records are (6 stretches of 2-10 s and a "
+        f"constant 60 s one) with other draws; {info['calibration']['stretches']} stretches. "
+        "Ratios b: "
         + "; ".join(
             f"{t} " + ", ".join(f"{r} {v:.3f}" for r, v in by.items())
             for t, by in info["bias_ratio"].items()

@@ -1,0 +1,44 @@
+"""A stretch's load state from its windows' mean features: the model's ``stretch`` model.
+
+The window model reads one window at a time, and a stretch's windows of one state share its
+error: at the fold of R(epsilon) near 0.35, at the vanishing first harmonic near 0.55 and near
+the +-1 um regime boundaries it called states of the monitoring study wrong in every window,
+with confidence (docs/monitor/model_error.md). Averaged over a stretch, the features keep the
+ripple's shape and lose most of the noise (a 2 s stretch of 0.2 s windows at 0.2 % noise is
+~0.06 % equivalent noise), and those states then differ from their twins of the other regime
+by 5-23 noise standard deviations (docs/monitor/twins.md). A model that learnt from stretches'
+mean features (:data:`~signatelec.estimation.training.STRETCH_TABLE`: 3-40 windows of
+50-200 ms, noise 0.05-1 %, drawn from paper-fidelity runs) reads them there.
+
+:func:`stretch_estimate` asks it about a stretch; :func:`~signatelec.estimation.evidence.
+combine_stretch` then takes its F_r, epsilon, clearance and regime probabilities, with the
+windows' intervals moved to its values.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from signatelec.estimation.condition import HEALTHY
+
+#: Fewest windows the stretch model reads (the fewest of its training stretches; a segment
+#: between two changes has at least as many).
+MIN_WINDOWS = 3
+
+
+def stretch_estimate(windows: pd.DataFrame, stretch_model, condition: str | None) -> dict | None:
+    """The ``stretch_model``'s estimate (:meth:`~signatelec.estimation.models.LoadStateModel.
+    predict_one`) of the windows' mean features, or None: no stretch model, fewer than
+    :data:`MIN_WINDOWS` windows, a feature not kept or not finite, or a stretch whose
+    ``condition`` is not healthy (the stretch model learnt healthy bearings only)."""
+    if stretch_model is None or len(windows) < MIN_WINDOWS:
+        return None
+    if condition is not None and condition != HEALTHY:
+        return None
+    if any(name not in windows for name in stretch_model.features):
+        return None
+    mean = windows[stretch_model.features].to_numpy(float).mean(axis=0)
+    if not np.all(np.isfinite(mean)):
+        return None
+    return stretch_model.predict_one(dict(zip(stretch_model.features, mean, strict=True)))
