@@ -10,6 +10,7 @@ intervals, the detector's false-alarm rate on independent windows.
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import threading
@@ -265,6 +266,8 @@ def test_load_step_and_regime_change(model_file, tiles, tmp_path):
     windows = pd.read_parquet(out / "windows.parquet")
     assert len(windows) == int(16.0 / 0.2)
     assert (out / "monitor.png").stat().st_size > 1000
+    # the command froze the collector's view of the model while reading the trace, not after
+    assert gc.get_freeze_count() == 0
 
 
 def test_constant_record_has_no_change(model_file, tiles, tmp_path):

@@ -10,7 +10,6 @@ import pandas as pd
 import pytest
 
 from signatelec.estimation.evidence import BIAS_RATIO, Z90, combine_stretch
-from signatelec.estimation.stretch import MIN_WINDOWS
 from signatelec.physics.kinematics import expected_ball_pass_hz
 from signatelec.studies.load_state import (
     OFFSET_OHM,
@@ -115,11 +114,14 @@ def _windows(n: int, seed: int = 0, condition: str | None = None) -> pd.DataFram
     return w
 
 
-def test_stretch_takes_the_stretch_models_answer():
-    """Value and regime are the stretch model's, asked about the windows' mean features; with
-    no scatter between the windows the interval is the model's own, on the combining scale,
-    times the calibrated ratio of the regime it is estimated in (b z90 sd_model)."""
-    model, windows = _Fixed(), _windows(12, condition="healthy")
+@pytest.mark.parametrize("n", [12, 1])
+def test_stretch_takes_the_stretch_models_answer(n):
+    """Value and regime are the stretch model's, asked about the windows' mean features (also
+    for a stretch of one window, which leaving out the windows that straddle a change can make:
+    the two stretches of a change are read by one model); with no scatter between the windows
+    the interval is the model's own, on the combining scale, times the calibrated ratio of the
+    regime it is estimated in (b z90 sd_model)."""
+    model, windows = _Fixed(), _windows(n, condition="healthy")
     s = combine_stretch(windows, stretch_model=model)
     assert model.asked == pytest.approx(windows[list(model.features)].mean().to_dict())
     assert s["estimated_from"] == "mean features"
@@ -136,14 +138,15 @@ def test_stretch_takes_the_stretch_models_answer():
     assert s["epsilon_window_sd"] == pytest.approx(0.01 / Z90)
 
 
-@pytest.mark.parametrize("case", ["no model", "too few windows", "faulty", "feature missing"])
+@pytest.mark.parametrize("case", ["no model", "faulty", "feature missing", "not finite"])
 def test_stretch_falls_back_to_the_windows(case):
-    """The windows' combination answers when there is no stretch model, fewer windows than its
-    training stretches had, a condition other than healthy (it learnt healthy bearings), or a
-    feature the windows did not keep."""
+    """The windows' combination answers when there is no stretch model, a condition other than
+    healthy (it learnt healthy bearings), or a feature the windows did not keep or that is not
+    finite."""
     model = None if case == "no model" else _Fixed()
-    n = MIN_WINDOWS - 1 if case == "too few windows" else 12
-    windows = _windows(n, condition="outer" if case == "faulty" else "healthy")
+    windows = _windows(12, condition="outer" if case == "faulty" else "healthy")
+    if case == "not finite":
+        windows.loc[3, "h1_rel"] = np.nan
     if case == "feature missing":
         windows = windows.drop(columns="h2_rel")
     s = combine_stretch(windows, stretch_model=model)

@@ -30,7 +30,7 @@ from signatelec.measurement.traces import TraceError, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: The example's estimate with the default model (README, "Load-state estimation").
-EXAMPLE_LOAD_N = 6923.0
+EXAMPLE_LOAD_N = 6937.0
 
 
 @pytest.fixture(scope="module")
@@ -154,7 +154,7 @@ def test_no_line_answered_without_confidence(model_file, tmp_path, capsys):
 
 @pytest.mark.parametrize(
     ("scale", "expected"),
-    [(1e3, "1000x the trained range 1.1-9.79 mOhm: is the column in mOhm?"), (1e-3, "kOhm?")],
+    [(1e3, "1000x the trained range 1.1-9.91 mOhm: is the column in mOhm?"), (1e-3, "kOhm?")],
 )
 def test_wrong_unit_named(model_file, tmp_path, capsys, scale, expected):
     path = _write(tmp_path, "scaled", _example()["resistance_ohm"].to_numpy() * scale)
@@ -188,7 +188,10 @@ def _measured(signals: pd.DataFrame, with_phase: bool) -> pd.DataFrame:
 def test_simulate_output_with_setup(model_file, simulated, tmp_path, capsys, variant):
     """simulate's own signals.parquet, set-up included: the set-up is cut off (by the phase
     column, or by the level when there is none) and F_r comes within 2 % of 5820 N, or the
-    trace is refused in one line; never averaged in (F_r would be ~10 N)."""
+    trace is refused in one line; never averaged in (F_r would be ~10 N). Without the phase
+    column the level's cut keeps the spin-up's tail (noise colour 1.6, z +29 against the
+    training traces): the default model with the fold and null runs refuses it as unlike every
+    training trace (in-domain score 3.9e-7 < 1e-6); the one before answered it within 2 %."""
     df = simulated if variant == "as_written" else _measured(simulated, variant == "measured")
     assert (df["resistance_ohm"].iloc[:5] > 1.0).all()  # the set-up: ohms, not milliohms
     path = tmp_path / "signals.parquet"
@@ -197,7 +200,8 @@ def test_simulate_output_with_setup(model_file, simulated, tmp_path, capsys, var
     code, text, err = _estimate(capsys, path, 500.0, model_file, "--out", str(out))
     if code == 2:
         _refused(code, err)
-        assert variant == "as_written"  # noise-free DEM output: unlike the measured traces
+        # noise-free DEM output, or a set-up cut by the level alone: unlike the measured traces
+        assert variant in ("as_written", "measured_without_phase")
         return
     assert code == 0, err
     assert ("kept the steady phase" if variant == "measured" else "trimmed a transient") in text

@@ -44,10 +44,9 @@ calibrated by Mondrian split conformal prediction (Vovk, Gammerman, Shafer 2005,
 4.5: the conformal quantile taken within each category of a taxonomy known at prediction time,
 here the estimated regime, so that the coverage holds within each regime, not only over their
 mix; Lei et al. 2018, JASA 113, 1094) on held-out runs that are not the acceptance records
-(:data:`BIAS_RATIO`; ``signatelec study monitor`` measures it). One ratio per target
-over-covered in the zero and preload regimes and under-covered in the clearance regime: the
-clearance of a zero or preloaded bearing is known more closely, relative to its windows'
-intervals, than a clearance is. The two parts add in quadrature: half-width
+(:data:`BIAS_RATIO`, :data:`BIAS_RATIO_WINDOWS`; ``signatelec study monitor`` measures them;
+one ratio per target over-covers some regimes and under-covers others, docs/monitor). The two
+parts add in quadrature: half-width
 z90 (b^2 w^2 + s^2 / n_eff)^(1/2). A class output combines the
 windows' log-probabilities, each weighted n_eff / n (the same correction for correlation).
 
@@ -70,18 +69,25 @@ from signatelec.estimation.stretch import stretch_estimate
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)
-#: The model's error of a state (shared by its windows) in units of the windows' interval
-#: standard deviation, per target and estimated regime: Mondrian split-conformal 90 % quantile
-#: over the stretches of the calibration records of ``signatelec study monitor`` estimated in
-#: that regime (docs/monitor: 288 held-out paper-fidelity DEM states drawn apart from the
-#: acceptance records' and from the design states that placed training runs, in records drawn
-#: as the acceptance records are; default model with its stretch model, 0.2 s windows);
-#: ``"any"``: over all of them, for a stretch without a regime.
+#: The model's error of a state (shared by its windows) in units of the stretch model's
+#: interval sd, per target and estimated regime: Mondrian split-conformal 90 % quantile over
+#: the calibration stretches of ``signatelec study monitor`` estimated in that regime (288
+#: held-out DEM states, apart from the acceptance and the design states; records drawn as the
+#: acceptance records are; default model, 0.2 s windows); ``"any"``: over all of them.
 BIAS_RATIO = {
     "radial_load_n": {"any": 0.364, "clearance": 0.393, "preload": 0.291, "zero": 0.373},
     "epsilon": {"any": 0.301, "clearance": 0.323, "preload": 0.201, "zero": 0.367},
     "clearance_m": {"any": 0.380, "clearance": 0.545, "preload": 0.462, "zero": 0.059},
 }
+#: The same for the windows' estimates combined (in units of their intervals' rms sd), on the
+#: same stretches: they answer for a model without a stretch model, or features not finite.
+BIAS_RATIO_WINDOWS = {
+    "radial_load_n": {"any": 0.439, "clearance": 0.573, "preload": 0.504, "zero": 0.101},
+    "epsilon": {"any": 0.425, "clearance": 0.616, "preload": 0.654, "zero": 0.055},
+    "clearance_m": {"any": 0.407, "clearance": 0.733, "preload": 0.585, "zero": 0.060},
+}
+#: The ratios by what answers a stretch (its ``estimated_from``).
+RATIOS_BY_SOURCE = {"mean features": BIAS_RATIO, "windows": BIAS_RATIO_WINDOWS}
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"
 #: Fewest windows on either side of a change.
@@ -389,12 +395,12 @@ def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None
 def combine_stretch(
     windows: pd.DataFrame, bias_ratio: dict | None = None, stretch_model=None
 ) -> dict:
-    """One stretch's estimate from its usable windows (``bias_ratio``: per target, per
-    estimated regime and :data:`ANY_REGIME`; default :data:`BIAS_RATIO`). With a
+    """One stretch's estimate from its usable windows (``bias_ratio``: per source, as
+    :data:`RATIOS_BY_SOURCE`, then per target, per estimated regime and :data:`ANY_REGIME`; a
+    source it lacks takes the shipped ratios). With a
     ``stretch_model`` (:mod:`~signatelec.estimation.stretch`) that answers, the targets and the
     regime are its estimates from the windows' mean features, each target's interval that of
     the windows moved to its value (``estimated_from``: ``mean features``, else ``windows``)."""
-    ratios = BIAS_RATIO if bias_ratio is None else bias_ratio
     out: dict = {"n_windows": int(len(windows))}
     classes = {}
     for name in CLASS_OUTPUTS:
@@ -406,6 +412,7 @@ def combine_stretch(
             classes.update({f"{name}_probability_{k}": v for k, v in probs.items()})
     est = stretch_estimate(windows, stretch_model, classes.get("condition"))
     out["estimated_from"] = "windows" if est is None else "mean features"
+    ratios = {**RATIOS_BY_SOURCE, **(bias_ratio or {})}[out["estimated_from"]]
     if est is not None and "regime" in classes:
         pc = [c for c in est if c.startswith("regime_probability_")]
         probs = {c.removeprefix("regime_probability_"): float(est[c]) for c in pc}

@@ -22,17 +22,18 @@ import pandas as pd
 
 from signatelec.estimation.condition import HEALTHY
 
-#: Fewest windows the stretch model reads (the fewest of its training stretches; a segment
-#: between two changes has at least as many).
-MIN_WINDOWS = 3
-
 
 def stretch_estimate(windows: pd.DataFrame, stretch_model, condition: str | None) -> dict | None:
     """The ``stretch_model``'s estimate (:meth:`~signatelec.estimation.models.LoadStateModel.
-    predict_one`) of the windows' mean features, or None: no stretch model, fewer than
-    :data:`MIN_WINDOWS` windows, a feature not kept or not finite, or a stretch whose
-    ``condition`` is not healthy (the stretch model learnt healthy bearings only)."""
-    if stretch_model is None or len(windows) < MIN_WINDOWS:
+    predict_one`) of the windows' mean features, or None: no stretch model or no window, a
+    feature not kept or not finite, or a stretch whose ``condition`` is known and not healthy
+    (the stretch model learnt healthy bearings only; the monitor's windows carry no condition
+    yet, so it answers for every stretch). It learnt stretches of 3-40 windows; a segment
+    between two changes holds at least 3, and leaving out the windows that straddle a change
+    can leave one or two: the model answers them too, so that the two stretches of a change
+    are read by one model (the windows' summed evidence is far surer of itself, and a regime
+    alarm could come from the change of estimator)."""
+    if stretch_model is None or windows.empty:
         return None
     if condition is not None and condition != HEALTHY:
         return None

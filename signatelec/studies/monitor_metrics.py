@@ -345,6 +345,22 @@ def acceptance_figures(truth: pd.DataFrame, changes: pd.DataFrame, hop_s: float 
     }
 
 
+def _windows_line(truth: pd.DataFrame | None) -> list[str]:
+    """The acceptance figures of the windows' estimates combined on the same stretches (what
+    answers for a model without a stretch model), as lines of the report."""
+    if truth is None:
+        return []
+    hits = stretch_hits(truth)
+    cover = ", ".join(_pct(hits[f"coverage_{t}"].mean()) for t in TARGETS)
+    return [
+        "The windows' estimates combined (what answers for a model without a stretch model) on "
+        f"the same acceptance stretches, with their own ratios: F_r within 1 % "
+        f"{_pct(hits.load_within_1pct.mean())}, regime right {_pct(hits.regime_right.mean())} "
+        f"(stretches >= 2 s), coverage {cover} (F_r, epsilon, clearance).",
+        "",
+    ]
+
+
 def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
     """The Markdown report of the study."""
     true = changes[changes.kind == "true"]
@@ -482,13 +498,19 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "assembled into records as the acceptance records are (6 stretches of 2-10 s and a "
         f"constant 60 s one) with other draws; {info['calibration']['stretches']} stretches. "
         "Ratios b: "
-        + "; ".join(
-            f"{t} " + ", ".join(f"{r} {v:.3f}" for r, v in by.items())
-            for t, by in info["bias_ratio"].items()
+        + " ".join(
+            f"*{source}*: "
+            + "; ".join(
+                f"{t} " + ", ".join(f"{r} {v:.3f}" for r, v in by.items())
+                for t, by in ratios.items()
+            )
+            + "."
+            for source, ratios in info["bias_ratio"].items()
         )
-        + " (per estimated regime, and over all stretches: `BIAS_RATIO` in "
-        "`signatelec/estimation/evidence.py` holds them).",
+        + " (per estimated regime, and over all stretches: `BIAS_RATIO` and "
+        "`BIAS_RATIO_WINDOWS` in `signatelec/estimation/evidence.py` hold them).",
         "",
+        *_windows_line(info.get("windows_truth")),
         "Coverage on the acceptance records, with the binomial standard error of a 90 % "
         "coverage over the stretches and over the distinct states (the stretches of one state "
         "share its model error, so the uncertainty lies between the two, nearer the second); "
