@@ -138,12 +138,23 @@ def test_stretch_takes_the_stretch_models_answer(n):
     assert s["epsilon_window_sd"] == pytest.approx(0.01 / Z90)
 
 
-@pytest.mark.parametrize("case", ["no model", "faulty", "feature missing", "not finite"])
+class _Foreign:
+    """A domain in which every stretch lies far out."""
+
+    def score(self, features: dict) -> float:
+        return 1e-9
+
+
+@pytest.mark.parametrize(
+    "case", ["no model", "faulty", "feature missing", "not finite", "unlike training"]
+)
 def test_stretch_falls_back_to_the_windows(case):
     """The windows' combination answers when there is no stretch model, a condition other than
-    healthy (it learnt healthy bearings), or a feature the windows did not keep or that is not
-    finite."""
+    healthy (it learnt healthy bearings), a feature the windows did not keep or that is not
+    finite, or mean features unlike every training stretch."""
     model = None if case == "no model" else _Fixed()
+    if case == "unlike training":
+        model.domain = _Foreign()
     windows = _windows(12, condition="outer" if case == "faulty" else "healthy")
     if case == "not finite":
         windows.loc[3, "h1_rel"] = np.nan

@@ -21,12 +21,15 @@ import numpy as np
 import pandas as pd
 
 from signatelec.estimation.condition import HEALTHY
+from signatelec.estimation.domain import REFUSE_SCORE
 
 
 def stretch_estimate(windows: pd.DataFrame, stretch_model, condition: str | None) -> dict | None:
     """The ``stretch_model``'s estimate (:meth:`~signatelec.estimation.models.LoadStateModel.
     predict_one`) of the windows' mean features, or None: no stretch model or no window, a
-    feature not kept or not finite, or a stretch whose ``condition`` is known and not healthy
+    feature not kept or not finite, mean features unlike every training stretch (in-domain
+    score below :data:`~signatelec.estimation.domain.REFUSE_SCORE`, as ``estimate`` refuses a
+    trace), or a stretch whose ``condition`` is known and not healthy
     (the stretch model learnt healthy bearings only; the monitor's windows carry no condition
     yet, so it answers for every stretch). It learnt stretches of 3-40 windows; a segment
     between two changes holds at least 3, and leaving out the windows that straddle a change
@@ -42,4 +45,8 @@ def stretch_estimate(windows: pd.DataFrame, stretch_model, condition: str | None
     mean = windows[stretch_model.features].to_numpy(float).mean(axis=0)
     if not np.all(np.isfinite(mean)):
         return None
-    return stretch_model.predict_one(dict(zip(stretch_model.features, mean, strict=True)))
+    features = dict(zip(stretch_model.features, mean, strict=True))
+    domain = getattr(stretch_model, "domain", None)
+    if domain is not None and domain.score(features) < REFUSE_SCORE:
+        return None  # unlike every training stretch: the windows' estimates answer
+    return stretch_model.predict_one(features)
