@@ -80,7 +80,7 @@ BIAS_RATIO = {
     "clearance_m": {"any": 0.380, "clearance": 0.545, "preload": 0.462, "zero": 0.059},
 }
 #: The same for the windows' estimates combined (in units of their intervals' rms sd), on the
-#: same stretches: they answer for a model without a stretch model, or features not finite.
+#: same stretches: they answer for a model without a stretch model or a stretch it does not.
 BIAS_RATIO_WINDOWS = {
     "radial_load_n": {"any": 0.439, "clearance": 0.573, "preload": 0.504, "zero": 0.101},
     "epsilon": {"any": 0.425, "clearance": 0.616, "preload": 0.654, "zero": 0.055},
@@ -399,8 +399,8 @@ def combine_stretch(
     :data:`RATIOS_BY_SOURCE`, then per target, per estimated regime and :data:`ANY_REGIME`; a
     source it lacks takes the shipped ratios). With a
     ``stretch_model`` (:mod:`~signatelec.estimation.stretch`) that answers, the targets and the
-    regime are its estimates from the windows' mean features, each target's interval that of
-    the windows moved to its value (``estimated_from``: ``mean features``, else ``windows``)."""
+    regime are its estimates from the windows' mean features, its interval sd the model part
+    of each target's interval (``estimated_from``: ``mean features``, else ``windows``)."""
     out: dict = {"n_windows": int(len(windows))}
     classes = {}
     for name in CLASS_OUTPUTS:

@@ -11,8 +11,8 @@ mean features (:data:`~signatelec.estimation.training.STRETCH_TABLE`: 3-40 windo
 50-200 ms, noise 0.05-1 %, drawn from paper-fidelity runs) reads them there.
 
 :func:`stretch_estimate` asks it about a stretch; :func:`~signatelec.estimation.evidence.
-combine_stretch` then takes its F_r, epsilon, clearance and regime probabilities, with the
-windows' intervals moved to its values.
+combine_stretch` then takes its F_r, epsilon, clearance and regime probabilities, its own
+interval's sd as the model part of each interval.
 """
 
 from __future__ import annotations
