@@ -159,7 +159,7 @@ def run_study(
         log(f"calibrated bias ratios: {ratios}")
     n = 2 if quick else N_RECORDS
     truth, changes, info = run_records(bank, model, work, n, const, log, bias_ratio=ratios)
-    info["bias_ratio"], info["source"] = ratios, source
+    info["bias_ratio"] = ratios
     info["bank"] = {"states": len(bank), "regimes": bank.regime.value_counts().to_dict()}
     info["calibration"] = {"states": len(calibration), "stretches": len(cal_truth)}
     info["cross_validation"] = cross_validation
