@@ -8,7 +8,10 @@ in ``_``, ``fit`` returns the estimator) and passes ``parametrize_with_checks``:
   (1 -+ coverage) / 2, widened or narrowed by the conformal margin measured on out-of-fold
   predictions grouped by simulation run (conformalised quantile regression; Romano, Patterson,
   Candes 2019). Where two load states give the same signature within the noise the quantile
-  models see both in the training data and the interval spans both;
+  models see both in the training data and the interval spans both. With ``interval =
+  "residual"`` the interval is instead the median -+ q s(x), s a model of the median's own
+  out-of-fold error (locally weighted split conformal; Papadopoulos, Gammerman, Vovk 2008;
+  Lei et al. 2018, sec. 5.2): it widens where a model that never saw a state errs there;
 - :class:`RegimeClassifier`: class probabilities of a gradient-boosted classifier,
   temperature-scaled on out-of-fold predictions so that they are calibrated (Guo et al. 2017);
 - :class:`LoadStateEstimator`: both together over a table of labels. The load goes through the
@@ -39,6 +42,8 @@ from signatelec.estimation.forest import FlatForest
 TARGETS = ("radial_load_n", "epsilon", "clearance_m")
 CLASS_TARGET = "regime"
 DEFAULT_COVERAGE = 0.9
+#: How :class:`IntervalRegressor` draws its interval (its docstring).
+INTERVALS = ("quantile", "residual")
 #: Exponent of log R that the load target is corrected by (R ~ F_r^(-4/3): 3/4).
 HERTZ_EXPONENT = 0.75
 LEVEL_FEATURE = "level_mean_ohm"
@@ -143,9 +148,15 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
     coverage ``coverage``: the (1 -+ coverage) / 2 quantile models, moved out (or in) by the
     margin that makes ``coverage`` of the out-of-fold samples fall inside (``groups`` in ``fit``
     keeps a simulation run's windows in one fold).
+
+    ``interval = "residual"``: the median -+ ``scale_margin_`` s(x) instead, s(x) the exp of a
+    median model of log |y - out-of-fold median| (the error of a median that never saw the
+    row's run, which the quantile models, fitted on every run, do not see), ``scale_margin_``
+    the conformal quantile of |y - median| / s over rows whose s is out of fold as well.
     """
 
     coverage: float = DEFAULT_COVERAGE
+    interval: str = "quantile"
 
     def _model(self, quantile: float) -> HistGradientBoostingRegressor:
         return HistGradientBoostingRegressor(
@@ -155,6 +166,11 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
     def fit(self, X, y, groups=None):
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         coverage = _check_coverage(self.coverage)
+        if self.interval not in INTERVALS:
+            raise ValueError(f"interval = {self.interval!r}: must be one of {INTERVALS}")
+        if self.interval == "residual":
+            return self._fit_residual(X, y, groups, coverage)
+        self.scale_margin_ = None
         lo_q, hi_q = (1.0 - coverage) / 2.0, (1.0 + coverage) / 2.0
         self.median_ = self._model(0.5).fit(X, y)
         self.lower_ = self._model(lo_q).fit(X, y)
@@ -175,9 +191,39 @@ class IntervalRegressor(RegressorMixin, _Boosting, BaseEstimator):
             self.margin_ = 0.0
         return self
 
+    def _fit_residual(self, X, y, groups, coverage: float):
+        """``interval = "residual"`` (class docstring): the median, the scale model s and the
+        margin, each calibration step on rows a model fitted without their run predicts."""
+
+        def median(X_fit, y_fit, X_test):
+            return self._model(0.5).fit(X_fit, y_fit).predict(X_test)
+
+        self.median_ = self._model(0.5).fit(X, y)
+        self.n_iter_ = self.median_.n_iter_
+        self.margin_ = 0.0
+        error = np.abs(y - out_of_fold(X, y, median, 1, groups, self.n_splits)[:, 0])
+        done = np.isfinite(error)
+        self.scale_margin_, self.scale_ = 0.0, None
+        self.forest_ = FlatForest([self.median_])
+        if not done.any():  # too few runs to tell: no interval beyond the median
+            return self
+        floor = max(float(np.median(error[done])) * 1e-3, np.finfo(float).tiny)
+        log_error = np.log(error[done] + floor)
+        g = None if groups is None else np.asarray(groups)[done]
+        scale = out_of_fold(X[done], log_error, median, 1, g, self.n_splits)[:, 0]
+        ok = np.isfinite(scale)
+        self.scale_margin_ = conformal_margin(error[done][ok] / np.exp(scale[ok]), coverage)
+        self.scale_ = self._model(0.5).fit(X[done], log_error)
+        self.forest_ = FlatForest([self.median_, self.scale_])
+        return self
+
     def _quantiles(self, X: np.ndarray) -> np.ndarray:
         """(median, lower, upper) of validated rows, shape (n, 3); quantile links are identity."""
-        return self.forest_.raw(X)
+        raw = self.forest_.raw(X)
+        if getattr(self, "scale_margin_", None) is None:  # quantile models (or a former file)
+            return raw
+        half = self.scale_margin_ * np.exp(raw[:, 1]) if raw.shape[1] > 1 else 0.0 * raw[:, 0]
+        return np.stack([raw[:, 0], raw[:, 0] - half, raw[:, 0] + half], axis=1)
 
     def _median_and_interval(
         self, X: np.ndarray, margin: np.ndarray | None = None
@@ -342,6 +388,7 @@ class LoadStateEstimator(_Boosting, BaseEstimator):
 
     coverage: float = DEFAULT_COVERAGE
     hertz_exponent: float = HERTZ_EXPONENT
+    interval: str = "quantile"
 
     def _level_index(self) -> int | None:
         names = list(getattr(self, "feature_names_in_", []))
@@ -370,7 +417,7 @@ class LoadStateEstimator(_Boosting, BaseEstimator):
                         raise ValueError("radial_load_n and the level must be > 0 for log F_r")
                     target = np.log(values) + self.hertz_exponent * np.log(X[:, level])
                     self.load_transform_[name] = level
-                est = IntervalRegressor(coverage=self.coverage, **params)
+                est = IntervalRegressor(coverage=self.coverage, interval=self.interval, **params)
                 est.fit(X, target, groups=groups)
             self.targets_.append((name, is_class))
             self.estimators_[name] = est

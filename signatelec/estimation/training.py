@@ -129,9 +129,10 @@ STRETCH_TABLE = Path(__file__).parent / "data" / "load_state_stretch_features.pa
 #: Version of :func:`train_default_model`'s recipe, raised whenever it trains differently
 #: from the same shipped tables (2: the faulty model on the condition model's runs alone, the
 #: length interval calibrated per spall location; 3: the paper-fidelity rows of
-#: :data:`PAPER_TABLE` beside the shipped table; 4: the stretch model on :data:`STRETCH_TABLE`),
-#: so that a cached default model is rebuilt.
-DEFAULT_RECIPE = 4
+#: :data:`PAPER_TABLE` beside the shipped table; 4: the stretch model on :data:`STRETCH_TABLE`;
+#: 5: the stretch model's intervals from a model of its own out-of-fold error), so that a
+#: cached default model is rebuilt.
+DEFAULT_RECIPE = 5
 #: Where the default model says it was trained.
 DEFAULT_SOURCE = f"signatelec/estimation/data/{DEFAULT_TABLE.name} + {PAPER_TABLE.name}"
 STRETCH_SOURCE = f"signatelec/estimation/data/{STRETCH_TABLE.name}"
@@ -365,7 +366,7 @@ def train_default_model(table: pd.DataFrame | None = None) -> LoadStateModel:
         stretches = pd.read_parquet(STRETCH_TABLE)
         stretches["regime"] = stretches["regime"].astype(str)
         model.stretch = train_model(
-            stretches, estimator=LoadStateEstimator(), source=STRETCH_SOURCE
+            stretches, estimator=LoadStateEstimator(interval="residual"), source=STRETCH_SOURCE
         )
     if model.condition is not None or not CONDITION_TABLE.is_file():
         return model
