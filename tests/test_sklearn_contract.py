@@ -57,6 +57,10 @@ def test_every_estimator_is_checked():
     assert {cls.__name__ for cls in transformers.TRANSFORMERS} <= names
 
 
-@parametrize_with_checks([_quick(cls) for cls in ESTIMATORS])
+#: Options that change what an estimator fits, checked as well.
+VARIANTS = [models.IntervalRegressor(interval="residual", **QUICK)]
+
+
+@parametrize_with_checks([_quick(cls) for cls in ESTIMATORS] + VARIANTS)
 def test_sklearn_contract(estimator, check):
     check(estimator)

@@ -31,12 +31,12 @@ which are material.
 **Stretches** (:func:`combine_stretch`): the windows between two changes. With the model's
 stretch model (:mod:`~signatelec.estimation.stretch`), F_r, epsilon, clearance and the regime
 are its estimates from the windows' MEAN features, and the model's error part below is its own
-interval's standard deviation w. Without one, a regression target
-(F_r on a log scale, epsilon, clearance) is the mean of the window estimates, a model of the
-window means whose error has two parts. The windows' scatter about their mean (noise), divided
-by the effective number of independent windows n_eff = n / (1 + 2 sum_k (1 - k / (K + 1))
-rho_k) (Bartlett, rho_k their autocorrelation at lag k, K = n^(1/3)): the independence
-assumption is checked on the windows themselves, and this part shrinks as the stretch grows.
+interval's standard deviation w (a model of its out-of-fold error draws that interval). Without
+one, a regression target (F_r on a log scale, epsilon, clearance) is the mean of the window
+estimates, a model of the window means whose error has two parts. The windows' scatter about
+their mean (noise), divided by the effective number of independent windows n_eff = n / (1 + 2
+sum_k (1 - k / (K + 1)) rho_k) (Bartlett, rho_k their autocorrelation at lag k, K = n^(1/3)):
+the windows themselves check the independence assumption; this part shrinks as a stretch grows.
 And the model's own error for that state, which does not shrink (the windows of one state share
 it): ``bias_ratio`` times the root-mean-square standard deviation of the windows' intervals
 (their width / 2 z90), a ratio per target and per regime the stretch is estimated in,

@@ -478,16 +478,18 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "the window estimates (their scatter over the effective number of independent windows, "
         "from their autocorrelation), and b w the model's error for the state, which its "
         "windows share and which does not shrink: w the standard deviation of the stretch "
-        "model's own interval (else the root-mean-square one of the windows' intervals), b a "
+        "model's own interval (drawn from a model of its out-of-fold error, so wide where a "
+        "model that never saw a state errs there; docs/monitor/interval_bands.md), else the "
+        "root-mean-square one of the windows' intervals; b a "
         "ratio per target and per regime the stretch is "
         "estimated in, calibrated by Mondrian split conformal prediction on other records (the "
         "90 % quantile of the ratio each stretch needs, among the calibration stretches "
         "estimated in the same regime; Vovk et al. 2005, ch. 4.5). One ratio per target "
         "covered the mix of regimes but not each (table below, cross-validated by state on "
         "the calibration records; a preloaded state estimated in the clearance regime takes "
-        "that regime's ratio). The coverage is a state's: a few states at the fold of "
-        "R(epsilon) and the first-harmonic null carry errors several times their interval, "
-        "and a bank of ~60 states holds more or fewer of them (docs/monitor/replication.md).",
+        "that regime's ratio). The coverage is a state's: the stretches of a state share its "
+        "error, so a bank of ~60 states measures a 90 % coverage to a few points "
+        "(docs/monitor/interval_bands.md, docs/monitor/replication.md).",
         "",
         f"**Calibration records** (not the acceptance records): "
         f"{info['calibration']['states']} other held-out states drawn alike from another seed "
