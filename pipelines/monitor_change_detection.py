@@ -103,12 +103,8 @@ def poisson_upper(k: int, level: float = 0.95) -> float:
 
 def constant_tables(constant) -> tuple[pd.DataFrame, pd.DataFrame, float]:
     """(false changes per nominal rate, per-series statistics per state, hours)."""
-    from signatelec.estimation.evidence import (
-        change_points,
-        detector_series,
-        stretches_and_changes,
-        usable,
-    )
+    from signatelec.estimation.changes import change_points, detector_series
+    from signatelec.estimation.evidence import stretches_and_changes, usable
 
     counts = dict.fromkeys(RATES, 0)
     reported = 0
@@ -148,7 +144,7 @@ def constant_tables(constant) -> tuple[pd.DataFrame, pd.DataFrame, float]:
 def white_noise_rates(hours: float = 10.0, seed: int = 1) -> pd.DataFrame:
     """False changes of independent Gaussian windows (5 series, two correlated), 10 min records,
     and of the same with stretches of 2-10 s whose F_r and epsilon scatter 16x apart."""
-    from signatelec.estimation.evidence import change_points
+    from signatelec.estimation.changes import change_points
 
     rng = np.random.default_rng(seed)
     n = 3000
@@ -210,7 +206,7 @@ def report(changes, rates, series, hours, white, cpu_s) -> str:
             "Written by `pipelines/monitor_change_detection.py` on the design states of "
             "`signatelec study monitor` (drawn from `DESIGN_SEED`, not the acceptance "
             "records); windows of 0.2 s, the default model, false-alarm rate 0.1 per hour. "
-            "The detector (`change_points` of `signatelec/estimation/evidence.py`) was chosen "
+            "The detector (`change_points` of `signatelec/estimation/changes.py`) was chosen "
             "on this evidence before the acceptance records were monitored with it; one rule "
             "came after that run (commit d063dce), prompted by a false change in the study's "
             "synthetic 60-min throughput record, not by the acceptance records: a second-pass "

@@ -58,12 +58,8 @@ def collect(
     """The design stretches (module docstring); with ``features``, also the mean of each over
     the stretch's windows (the windows then keep them beside the monitor's own)."""
     from signatelec.estimation import monitor as monitor_module
-    from signatelec.estimation.evidence import (
-        class_columns,
-        effective_fraction,
-        stretches_and_changes,
-        usable,
-    )
+    from signatelec.estimation.changes import effective_fraction
+    from signatelec.estimation.evidence import class_columns, stretches_and_changes, usable
     from signatelec.estimation.monitor import MonitorSettings, monitor_trace
     from signatelec.estimation.persistence import default_model, load_model
     from signatelec.studies.monitor import N_CALIBRATION_RECORDS, N_STRETCHES

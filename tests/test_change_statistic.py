@@ -9,7 +9,7 @@ chi^2 with d degrees of freedom.
 import numpy as np
 from scipy import stats
 
-from signatelec.estimation.evidence import _best_split
+from signatelec.estimation.changes import _best_split
 
 
 def _windows(rng, n: int, d: int, shift: np.ndarray | None = None, at: int = 0):

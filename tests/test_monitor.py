@@ -25,15 +25,8 @@ from threadpoolctl import threadpool_limits
 from signatelec.config.bearing import Bearing
 from signatelec.config.scene import Scene
 from signatelec.engines.simulate import simulate
-from signatelec.estimation.evidence import (
-    Z90,
-    change_points,
-    change_time,
-    combine_target,
-    effective_fraction,
-    stretches_and_changes,
-    usable,
-)
+from signatelec.estimation.changes import change_points, change_time, effective_fraction
+from signatelec.estimation.evidence import Z90, combine_target, stretches_and_changes, usable
 from signatelec.estimation.models import LoadStateEstimator
 from signatelec.estimation.monitor import MonitorSettings, monitor_trace
 from signatelec.estimation.persistence import save_model

@@ -145,17 +145,14 @@ class _Foreign:
         return 1e-9
 
 
-@pytest.mark.parametrize(
-    "case", ["no model", "faulty", "feature missing", "not finite", "unlike training"]
-)
+@pytest.mark.parametrize("case", ["no model", "feature missing", "not finite", "unlike training"])
 def test_stretch_falls_back_to_the_windows(case):
-    """The windows' combination answers when there is no stretch model, a condition other than
-    healthy (it learnt healthy bearings), a feature the windows did not keep or that is not
-    finite, or mean features unlike every training stretch."""
+    """The windows' combination answers when there is no stretch model, a feature the windows
+    did not keep or that is not finite, or mean features unlike every training stretch."""
     model = None if case == "no model" else _Fixed()
     if case == "unlike training":
         model.domain = _Foreign()
-    windows = _windows(12, condition="outer" if case == "faulty" else "healthy")
+    windows = _windows(12, condition="healthy")
     if case == "not finite":
         windows.loc[3, "h1_rel"] = np.nan
     if case == "feature missing":
@@ -165,3 +162,18 @@ def test_stretch_falls_back_to_the_windows(case):
     assert s["radial_load_n"] == pytest.approx(5200.0)
     assert s["regime"] == "zero"
     assert model is None or model.asked is None
+
+
+def test_a_faulty_stretch_is_answered_and_warned_of():
+    """Both the stretch model and the window model learnt healthy bearings: a stretch whose
+    condition is confidently a spall keeps the stretch model's answer, and the summary warns
+    that its load state is an extrapolation (no regime call on it is confident)."""
+    from signatelec.estimation.monitor_report import qualify
+
+    model = _Fixed()
+    s = combine_stretch(_windows(12, condition="outer"), stretch_model=model)
+    assert s["estimated_from"] == "mean features" and s["condition"] == "outer"
+    s.update(start_s=0.0, end_s=2.4)
+    notes = qualify([s], pd.DataFrame({"status": [], "start_s": [], "end_s": []}))
+    assert len(notes) == 1 and "condition outer" in notes[0] and "extrapolation" in notes[0]
+    assert s["regime_confident"] is False

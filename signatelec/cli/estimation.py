@@ -192,6 +192,14 @@ def train(dataset, out, quiet):
     show_default=True,
     help="Relative change of F_r that counts as a load change (and alarm).",
 )
+@click.option(
+    "--condition-every",
+    "condition_every_s",
+    type=float,
+    default=None,
+    help="Trace between two assessments of the bearing's condition, s (default: one a minute; "
+    "0: none).",
+)
 @click.option("--model", "model_path", type=str, default=None, help="Model file (as for estimate).")
 @trace_columns
 @click.option(
@@ -207,7 +215,8 @@ def train(dataset, out, quiet):
 @click.option("--quiet", is_flag=True, help="No progress or summary.")
 def monitor(
     trace_file, out, omega_rad_s, speed_column, track_speed, window_s, hop_s, false_alarm_rate,
-    load_threshold, model_path, time_column, resistance_column, follow, idle_s, quiet,
+    load_threshold, condition_every_s, model_path, time_column, resistance_column, follow, idle_s,
+    quiet,
 ):  # fmt: skip
     """Monitor a long resistance trace: per-window load state, stretches, changes and alarms.
 
@@ -217,6 +226,7 @@ def monitor(
     """
     from signatelec.cli.common import claim_output, write_output
     from signatelec.estimation.evidence import check_settings, stretches_and_changes
+    from signatelec.estimation.health import CONDITION_EVERY_S
     from signatelec.estimation.monitor import (
         KEPT_FEATURES,
         MonitorSettings,
@@ -239,6 +249,11 @@ def monitor(
         resistance_column=resistance_column,
         follow=follow,
         follow_idle_s=idle_s,
+        condition_every_s=(
+            CONDITION_EVERY_S
+            if condition_every_s is None
+            else (None if condition_every_s == 0 else condition_every_s)
+        ),
     )
     try:  # TraceError is a ValueError: the Python functions refuse with the same line
         settings.check()
@@ -276,7 +291,11 @@ def monitor(
     stretches, changes, alarms = stretches_and_changes(
         windows, settings.hop, false_alarm_rate, load_threshold, stretch_model=model.stretch
     )
-    extra = {"false_alarm_rate_per_hour": false_alarm_rate, "load_threshold": load_threshold}
+    extra = {
+        "false_alarm_rate_per_hour": false_alarm_rate,
+        "load_threshold": load_threshold,
+        "condition_every_s": settings.condition_every_s if model.condition else None,
+    }
     summary = summary_of(
         table, settings, stretches, changes, alarms, extra, model.info.get("ranges")
     )

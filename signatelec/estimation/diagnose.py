@@ -85,10 +85,14 @@ def assess_condition(
     trace_features: dict,
     model,
     bearing: Bearing | None = None,
+    trace_analysis=None,
 ) -> tuple[dict, list[str]]:
     """(condition keys, notes) of one screened trace (module docstring); ``trace_features``
-    are its load-state features (:func:`~signatelec.estimation.features.trace_features`)."""
-    analysis = analyse_envelope(resistance_ohm, sample_rate_hz, omega_rad_s, bearing=bearing)
+    are its load-state features (:func:`~signatelec.estimation.features.trace_features`),
+    ``trace_analysis`` its :func:`~signatelec.estimation.analysis.analyse_trace`, if made."""
+    analysis = analyse_envelope(
+        resistance_ohm, sample_rate_hz, omega_rad_s, bearing=bearing, analysis=trace_analysis
+    )
     revolutions = analysis.cage_revolutions
     # the lines' heights over their floors grow with the trace's length: fewer revolutions than
     # the shortest training trace is an extrapolation the model was not asked to make

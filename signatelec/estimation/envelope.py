@@ -207,14 +207,15 @@ def analyse_envelope(
     omega_rad_s: float,
     *,
     bearing: Bearing | None = None,
+    analysis=None,
 ) -> EnvelopeAnalysis:
     """The envelope analysis of one trace (module docstring). The trace's level, drift and
-    ball-pass ripple come from :func:`~signatelec.estimation.analysis.analyse_trace`; the band
-    and the envelope are taken on what the ripple leaves, the raw lines on the trace less its
-    level and drift."""
+    ball-pass ripple come from :func:`~signatelec.estimation.analysis.analyse_trace` (or
+    ``analysis``, the trace's own, already made); the band and the envelope are taken on what
+    the ripple leaves, the raw lines on the trace less its level and drift."""
     from signatelec.estimation.analysis import analyse_trace
 
-    a = analyse_trace(resistance_ohm, sample_rate_hz, omega_rad_s, bearing=bearing)
+    a = analysis or analyse_trace(resistance_ohm, sample_rate_hz, omega_rad_s, bearing=bearing)
     fs = a.sample_rate_hz
     lines = characteristic_frequencies_hz(omega_rad_s, bearing)
     highest = max(lines[n] for n in LINES) + lines["shaft"]

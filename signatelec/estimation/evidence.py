@@ -1,32 +1,8 @@
 """Evidence over time: change points in the window estimates, stretch estimates, alarms.
 
-**Change points** (:func:`change_points`): binary segmentation with a Gaussian generalised
-likelihood-ratio statistic for a change of mean (Basseville & Nikiforov 1993, *Detection of
-Abrupt Changes*, section 2.4; binary segmentation: Vostrikova 1981) on the series of
-:func:`detector_series`: log level, log F_r, epsilon, the ripple's first two harmonics and
-the log-odds of each class output but the regime (a bearing condition, when the model has
-one); the regime follows epsilon and the ripple, and its classifier's log-odds only add their
-scatter where a state lies on a regime boundary (a held-out state 1 um from preload split into
-spurious zero/preload stretches with them).
-Each window has a precision of its own, P_i = D_i^(-1/2) R^(-1) D_i^(-1/2): D_i the local
-variance of each series (:func:`_local_variance`: residuals about a running median, which
-follows the majority side of a step, averaged over a few seconds) and R their correlation over
-the record. The model's outputs scatter very differently from one state to another (epsilon's
-window-to-window standard deviation spans 17x over the DEM states of the monitoring study's
-design bank, log F_r 7x; the log level and harmonics, set by the noise, within 1.3x):
-one variance pooled over a record read the windows of a noisy state as changes (8 spurious
-changes in 40 design records; docs/monitor/change_detection.md). The statistic of a
-split at k compares the precision-weighted means of the two sides, T_k = (m_L - m_R)'
-(A^-1 + B^-1)^-1 (m_L - m_R), A and B the sums of the sides' precisions: chi^2 with d degrees
-of freedom under no change; each candidate split is tested at ``false_alarm_per_hour`` x
-hop / 1 h, so that (Bonferroni) at most that many false changes are expected per hour of
-trace; a change's ``probability`` is 1 - its Bonferroni-corrected p-value over its segment.
-A segmentation runs twice: the second reads the local variances within the first's segments
-and divides T by the long-run variance factor of the residuals (Bartlett window over their
-autocorrelation; ~1 on the DEM records: their windows are independent), so that correlated
-windows do not pass for independent evidence. Each change found is then placed again by the
-same statistic between its neighbours. Every change point is reported; :func:`alarms` says
-which are material.
+**Change points** (:mod:`~signatelec.estimation.changes`): where the windows' estimates change
+(:func:`~signatelec.estimation.changes.change_points`) and when
+(:func:`~signatelec.estimation.changes.change_time`).
 
 **Stretches** (:func:`combine_stretch`): the windows between two changes. With the model's
 stretch model (:mod:`~signatelec.estimation.stretch`), F_r, epsilon, clearance and the regime
@@ -62,25 +38,30 @@ import numbers
 
 import numpy as np
 import pandas as pd
-from numba import njit
 from scipy import stats
 
+from signatelec.estimation.changes import (
+    FALSE_ALARM_PER_HOUR,
+    change_points,
+    change_time,
+    effective_fraction,
+)
+from signatelec.estimation.health import assessed_windows, condition_changes
 from signatelec.estimation.stretch import stretch_estimate
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)
 #: The model's error of a state (shared by its windows) in units of the stretch model's
 #: interval sd, per target and estimated regime: Mondrian split-conformal 90 % quantile over
-#: the calibration stretches of ``signatelec study monitor`` estimated in that regime (288
-#: held-out DEM states, apart from the acceptance and the design states; records drawn as the
-#: acceptance records are; default model, 0.2 s windows); ``"any"``: over all of them.
+#: the calibration stretches of ``signatelec study monitor`` in that regime (288 other held-out
+#: DEM states, records as the acceptance ones, 0.2 s windows); ``"any"``: over all of them.
 BIAS_RATIO = {
     "radial_load_n": {"any": 0.482, "clearance": 0.455, "preload": 0.451, "zero": 0.517},
     "epsilon": {"any": 0.552, "clearance": 0.603, "preload": 0.472, "zero": 0.611},
     "clearance_m": {"any": 0.479, "clearance": 0.624, "preload": 0.422, "zero": 0.287},
 }
-#: The same for the windows' estimates combined (in units of their intervals' rms sd), on the
-#: same stretches: they answer for a model without a stretch model or a stretch it does not.
+#: The same for the windows' estimates combined (units: their intervals' rms sd), on the same
+#: stretches (they answer for a model without a stretch model, or where it does not).
 BIAS_RATIO_WINDOWS = {
     "radial_load_n": {"any": 0.439, "clearance": 0.573, "preload": 0.504, "zero": 0.101},
     "epsilon": {"any": 0.425, "clearance": 0.616, "preload": 0.654, "zero": 0.055},
@@ -91,7 +72,6 @@ RATIOS_BY_SOURCE = {"mean features": BIAS_RATIO, "windows": BIAS_RATIO_WINDOWS}
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"
 #: Fewest windows on either side of a change.
-MIN_SEGMENT = 3
 #: Class outputs of the model, each with ``<name>_probability_<class>`` columns.
 CLASS_OUTPUTS = ("regime", "condition")
 #: Regression targets and the scale they are combined on.
@@ -99,255 +79,11 @@ TARGET_SCALES = {"radial_load_n": "log", "epsilon": "linear", "clearance_m": "li
 #: Default threshold of a load-change alarm (relative change of F_r).
 LOAD_THRESHOLD = 0.05
 #: Default expected number of false changes per hour of trace.
-FALSE_ALARM_PER_HOUR = 0.1
 
 
 def class_columns(windows: pd.DataFrame, name: str) -> list[str]:
     prefix = f"{name}_probability_"
     return [c for c in windows.columns if c.startswith(prefix)]
-
-
-def detector_series(windows: pd.DataFrame) -> np.ndarray:
-    """The series the change detector reads, one column each (rows: usable windows)."""
-    cols = [np.log(windows["level_mean_ohm"].to_numpy(float))]
-    cols.append(np.log(windows["radial_load_n"].to_numpy(float)))
-    for name in ("epsilon", "h1_rel", "h2_rel"):
-        cols.append(windows[name].to_numpy(float))
-    for name in CLASS_OUTPUTS:
-        pc = class_columns(windows, name)
-        # the regime follows epsilon and the ripple, already here: its classifier's log-odds
-        # would add only their heavy-tailed scatter where a state sits between two regimes
-        if len(pc) > 1 and name != "regime":
-            logp = np.log(np.clip(windows[pc].to_numpy(float), 1e-6, 1.0))
-            cols.extend((logp - logp.mean(axis=1, keepdims=True))[:, :-1].T)
-    return np.column_stack(cols)
-
-
-def _robust_scale(x: np.ndarray) -> np.ndarray:
-    """Per column: sigma from the MAD of first differences (a step moves one difference); for
-    a column that is piecewise constant (a classifier's output takes few values), the standard
-    deviation of its differences; 1 for a constant column."""
-    d = np.diff(x, axis=0)
-    s = 1.4826 * np.median(np.abs(d - np.median(d, axis=0)), axis=0) / math.sqrt(2.0)
-    s = np.where(s > 0, s, d.std(axis=0) / math.sqrt(2.0))
-    return np.where(s > 0, s, 1.0)
-
-
-#: Smallest variance of a whitened direction, in units of the standardised series: a series
-#: constant within every stretch (a saturated classifier) keeps its steps as evidence.
-MIN_VARIANCE = 1e-3
-#: Half-width, in windows, of the neighbourhood a window's local scatter is averaged over
-#: (:func:`_local_variance`; 4.2 s at 0.2 s windows).
-SCATTER_HALF_WIDTH = 10
-#: Mean of the squared residuals about a running median of 7, averaged over 21 windows, over
-#: sigma^2, such that the precision it gives is unbiased on independent Gaussian windows
-#: (1 / E[sigma^2 / v], measured on 400 000 white-noise windows: 0.807; the residuals' own
-#: mean square is 0.925 sigma^2, the median being correlated with its centre).
-LOCAL_PRECISION_FACTOR = 0.807
-#: Smallest local variance of a series relative to its median over the record.
-LOCAL_FLOOR = 0.1
-
-
-def effective_fraction(x: np.ndarray) -> float:
-    """n_eff / n of a series: 1 / (1 + 2 sum_k (1 - k / (K + 1)) rho_k), K = n^(1/3), at most 1."""
-    x = np.asarray(x, float)
-    n = x.size
-    if n < 4:
-        return 1.0
-    e = x - x.mean()
-    var = float(e @ e) / n
-    if var <= 0:
-        return 1.0
-    lags = max(1, int(round(n ** (1.0 / 3.0))))
-    acc = 0.0
-    for k in range(1, min(lags, n - 1) + 1):
-        # + 1 / n: the sample autocorrelation of an independent series is biased by -1 / n
-        # (its mean is removed; Kendall & Stuart 1983, vol. 3, eq. 48.3)
-        rho = float(e[:-k] @ e[k:]) / (n * var) + 1.0 / n
-        acc += (1.0 - k / (lags + 1.0)) * rho
-    return float(min(1.0, max(1.0 / n, 1.0 / (1.0 + 2.0 * acc))))
-
-
-def _scatter(seg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(mean square, residual) of one segment's windows (:func:`_local_variance`)."""
-    from scipy.ndimage import median_filter
-
-    h, n = MIN_SEGMENT, seg.shape[0]
-    m = median_filter(seg, size=(2 * h + 1, 1), mode="nearest")
-    m[:h] = np.median(seg[: 2 * h + 1], axis=0)
-    m[-h:] = np.median(seg[-(2 * h + 1) :], axis=0)
-    r = seg - m
-    cum = np.vstack([np.zeros(seg.shape[1]), np.cumsum(r**2, axis=0)])
-    # the neighbourhood is shifted, not cut, at the segment's ends: as many residuals
-    # everywhere (fewer would overstate the precision, 1 / v being convex)
-    width = min(2 * SCATTER_HALF_WIDTH + 1, n)
-    lo = np.clip(np.arange(n) - SCATTER_HALF_WIDTH, 0, n - width)
-    return (cum[lo + width] - cum[lo]) / width, r
-
-
-def _local_variance(z: np.ndarray, edges: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """(variance, residual) per window and series: the scatter about the current state's level.
-    The residuals are about a running median of 2 :data:`MIN_SEGMENT` + 1 windows (which
-    follows the majority side of a step, so that a change does not read as scatter; the first
-    and last windows take the median of the first or last 2 :data:`MIN_SEGMENT` + 1), squared
-    and averaged over the 2 :data:`SCATTER_HALF_WIDTH` + 1 windows around, over
-    :data:`LOCAL_PRECISION_FACTOR`; within each segment of ``edges`` (one that holds fewer
-    windows takes the larger of its own and the record's: a few windows' own scatter is a
-    noisy and, 1 / v being convex, overstated precision); at least :data:`LOCAL_FLOOR` of the
-    series' median local variance over the record (a series clipped at zero, such as a
-    harmonic below the noise, can sit still for many windows) and at least
-    :data:`MIN_VARIANCE`."""
-    whole, r = _scatter(z)
-    var = whole.copy()
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
-        if b - a < z.shape[0]:
-            var[a:b], r[a:b] = _scatter(z[a:b])
-            if b - a < 2 * SCATTER_HALF_WIDTH + 1:
-                var[a:b] = np.maximum(var[a:b], whole[a:b])
-    var /= LOCAL_PRECISION_FACTOR
-    floor = np.maximum(LOCAL_FLOOR * np.median(var, axis=0), MIN_VARIANCE)
-    return np.maximum(var, floor), r
-
-
-def _precisions(z: np.ndarray, edges: list[int]) -> np.ndarray:
-    """(n, d, d) precision of each window: D_i^(-1/2) R^(-1) D_i^(-1/2), D_i its series' local
-    variances (:func:`_local_variance` within the segments of ``edges``), R the correlation of
-    the locally standardised residuals over the record (eigenvalues at least
-    :data:`MIN_VARIANCE`)."""
-    var, r = _local_variance(z, edges)
-    s = 1.0 / np.sqrt(var)
-    u = r * s
-    sd = u.std(axis=0)
-    # a series without scatter (a saturated classifier) is uncorrelated with the others
-    u = np.divide(u - u.mean(axis=0), sd, out=np.zeros_like(u), where=sd > 0)
-    corr = u.T @ u / u.shape[0]
-    corr[np.diag_indices_from(corr)] = 1.0
-    w, v = np.linalg.eigh(corr)
-    inv = (v / np.maximum(w, MIN_VARIANCE)) @ v.T
-    return s[:, :, None] * inv[None] * s[:, None, :]
-
-
-@njit(cache=True, error_model="numpy")
-def _quadratic(cum_p, cum_px, a: int, b: int, lo: np.ndarray) -> float:
-    """s' M^-1 s for M = cum_p[b] - cum_p[a] (symmetric positive definite, d x d) and
-    s = cum_px[b] - cum_px[a]: |y|^2 with L y = s, M = L L' (Cholesky; Golub & Van Loan 2013,
-    alg. 4.2.1), in the work array ``lo`` (d x (d + 1): L, and y in its last column);
-    -inf when M is not positive definite."""
-    d = cum_px.shape[1]
-    total = 0.0
-    for i in range(d):
-        for j in range(i + 1):
-            acc = cum_p[b, i, j] - cum_p[a, i, j]
-            for q in range(j):
-                acc -= lo[i, q] * lo[j, q]
-            if i == j:
-                if acc <= 0.0:
-                    return -math.inf
-                lo[i, i] = math.sqrt(acc)
-            else:
-                lo[i, j] = acc / lo[j, j]
-        acc = cum_px[b, i] - cum_px[a, i]
-        for q in range(i):
-            acc -= lo[i, q] * lo[q, d]
-        lo[i, d] = acc / lo[i, i]
-        total += lo[i, d] * lo[i, d]
-    return total
-
-
-@njit(cache=True, error_model="numpy")
-def _best_split(cum_p, cum_px, a: int, b: int, min_segment: int) -> tuple[int, float]:
-    """(k, T_k) of the largest GLR statistic over splits of [a, b) with at least
-    ``min_segment`` windows a side, (-1, 0) when there is none: T_k = (m_L - m_R)'
-    (A^-1 + B^-1)^-1 (m_L - m_R), m_L and m_R the precision-weighted means of the two sides and
-    A and B the sums of their precisions (chi^2 with d degrees of freedom under no change),
-    computed as the weighted residual sum of squares that the split removes,
-    s_L' A^-1 s_L + s_R' B^-1 s_R - s' (A + B)^-1 s (s_L, s_R the sides' precision-weighted
-    sums; the same number: both are twice the log-likelihood ratio of a change of mean at k)."""
-    d = cum_px.shape[1]
-    lo = np.zeros((d, d + 1))
-    whole = _quadratic(cum_p, cum_px, a, b, lo)
-    best_k, best_t = -1, 0.0
-    for k in range(a + min_segment, b - min_segment + 1):
-        t = _quadratic(cum_p, cum_px, a, k, lo) + _quadratic(cum_p, cum_px, k, b, lo) - whole
-        # a sum of precisions that rounding left not positive definite gives no statistic
-        if math.isfinite(t) and (best_k < 0 or t > best_t):
-            best_k, best_t = k, t
-    return best_k, best_t
-
-
-def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float = 1.0):
-    """Binary segmentation of series ``z`` with window precisions ``p`` (the statistic divided
-    by the long-run variance ``factor``): [(index, p-value)] of the changes."""
-    n, d = z.shape
-    cum_p = np.concatenate([np.zeros((1, d, d)), np.cumsum(p, axis=0)])
-    cum_px = np.vstack([np.zeros(d), np.cumsum(np.einsum("kij,kj->ki", p, z), axis=0)])
-
-    def best(a, b):
-        k, t = _best_split(cum_p, cum_px, a, b, MIN_SEGMENT)
-        return k, t / factor
-
-    def p_value_of(a, b, t):
-        """The split's p-value, Bonferroni-corrected over the b - a - 1 splits of [a, b)."""
-        return min(1.0, (b - a - 1) * stats.chi2.sf(t, d))
-
-    found, todo = [], [(0, n)]
-    threshold = stats.chi2.isf(alpha_per_split, d)
-    while todo:
-        a, b = todo.pop()
-        k, t = best(a, b)
-        if k < 0 or not t > threshold:
-            continue
-        found.append((k, p_value_of(a, b, t)))
-        todo += [(a, k), (k, b)]
-    found.sort()
-    # place each change again between its neighbours (binary segmentation's first splits
-    # see several changes at once)
-    edges = [0] + [k for k, _ in found] + [n]
-    placed = []
-    for i, (_, p_value) in enumerate(found):
-        k, t = best(edges[i], edges[i + 2])
-        if k > 0:
-            edges[i + 1] = k
-            p_value = min(p_value, p_value_of(edges[i], edges[i + 2], t))
-        placed.append((edges[i + 1], p_value))
-    return placed
-
-
-def _long_run_factor(p: np.ndarray, z: np.ndarray, changes: list[int]) -> float:
-    """The median over whitened directions of n / n_eff of the residuals about the segments'
-    weighted means (:func:`effective_fraction`): correlated windows are not independent
-    evidence."""
-    edges = [0, *changes, z.shape[0]]
-    res = np.empty_like(z)
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
-        m = np.linalg.solve(p[a:b].sum(axis=0), np.einsum("kij,kj->i", p[a:b], z[a:b]))
-        res[a:b] = z[a:b] - m
-    # whiten each window with its own precision (Cholesky factor: u' u = r' P r)
-    chol = np.linalg.cholesky(p)
-    u = np.einsum("kji,kj->ki", chol, res)
-    return float(np.median([1.0 / effective_fraction(u[:, j]) for j in range(u.shape[1])]))
-
-
-def change_points(
-    windows: pd.DataFrame, hop_s: float, false_alarm_per_hour: float = FALSE_ALARM_PER_HOUR
-) -> list[tuple[int, float]]:
-    """[(row of ``windows`` where a new stretch starts, probability)] (module docstring);
-    ``windows`` holds the usable windows only, in time order."""
-    x = detector_series(windows)
-    ok = np.all(np.isfinite(x), axis=1)
-    x = x[ok]
-    rows = np.flatnonzero(ok)
-    if x.shape[0] < 2 * MIN_SEGMENT:
-        return []
-    alpha = min(0.5, false_alarm_per_hour * hop_s / 3600.0)
-    z = x / _robust_scale(x)
-    z -= np.median(z, axis=0)
-    p = _precisions(z, [0, z.shape[0]])
-    first = [k for k, _ in _segment(p, z, alpha)]
-    # the second pass reads each window's scatter within its first-pass segment
-    p = _precisions(z, [0, *first, z.shape[0]])
-    second = _segment(p, z, alpha, _long_run_factor(p, z, first))
-    return [(int(rows[k]), 1.0 - p_value) for k, p_value in second]
 
 
 def combine_target(values, low, high, log: bool, bias_ratio: float, model=None) -> dict:
@@ -379,9 +115,10 @@ def combine_target(values, low, high, log: bool, bias_ratio: float, model=None) 
 def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None:
     """Class probabilities of a stretch: windows' log-probabilities summed, weighted n_eff / n."""
     pc = class_columns(windows, name)
-    if not pc:
+    p = windows[pc].dropna().to_numpy(float)  # the windows that answered (health: a few)
+    if not pc or not len(p):
         return None
-    logp = np.log(np.clip(windows[pc].to_numpy(float), 1e-12, 1.0))
+    logp = np.log(np.clip(p, 1e-12, 1.0))
     top = int(np.argmax(logp.sum(axis=0)))
     others = np.delete(logp, top, axis=1)
     margin = logp[:, top] - (others.max(axis=1) if others.size else 0.0)
@@ -393,24 +130,27 @@ def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None
 
 
 def combine_stretch(
-    windows: pd.DataFrame, bias_ratio: dict | None = None, stretch_model=None
+    windows: pd.DataFrame, bias_ratio: dict | None = None, stretch_model=None, assessed=None
 ) -> dict:
     """One stretch's estimate from its usable windows (``bias_ratio``: per source, as
     :data:`RATIOS_BY_SOURCE`, then per target, per estimated regime and :data:`ANY_REGIME`; a
     source it lacks takes the shipped ratios). With a
     ``stretch_model`` (:mod:`~signatelec.estimation.stretch`) that answers, the targets and the
     regime are its estimates from the windows' mean features, its interval sd the model part
-    of each target's interval (``estimated_from``: ``mean features``, else ``windows``)."""
+    of each target's interval (``estimated_from``: ``mean features``, else ``windows``).
+    ``assessed``: the stretch's windows whose condition was assessed, whatever their status
+    (:mod:`~signatelec.estimation.health`), which give its condition instead."""
     out: dict = {"n_windows": int(len(windows))}
     classes = {}
     for name in CLASS_OUTPUTS:
-        probs = combine_classes(windows, name)
+        from_ = assessed if name == "condition" and assessed is not None else windows
+        probs = combine_classes(from_, name)
         if probs:
             best = max(probs, key=probs.get)
             classes[name] = best
             classes[f"{name}_probability"] = probs[best]
             classes.update({f"{name}_probability_{k}": v for k, v in probs.items()})
-    est = stretch_estimate(windows, stretch_model, classes.get("condition"))
+    est = stretch_estimate(windows, stretch_model)
     out["estimated_from"] = "windows" if est is None else "mean features"
     ratios = {**RATIOS_BY_SOURCE, **(bias_ratio or {})}[out["estimated_from"]]
     if est is not None and "regime" in classes:
@@ -421,7 +161,7 @@ def combine_stretch(
         classes.update({f"regime_probability_{k}": v for k, v in probs.items()})
     regime = classes.get("regime", ANY_REGIME)
     for target, scale in TARGET_SCALES.items():
-        if target not in windows:
+        if target not in windows or windows.empty:  # a stretch of assessed windows only
             continue
         c = combine_target(
             windows[target],
@@ -473,37 +213,6 @@ def non_overlapping(good: pd.DataFrame) -> pd.DataFrame:
     return good.iloc[keep].reset_index(drop=True)
 
 
-def change_time(windows: pd.DataFrame, good: pd.DataFrame, k: int) -> float:
-    """When the state changed between usable windows k - 1 and k: from a window that straddles
-    the change, whose mean level mixes the two stretches' levels L1, L2 in proportion to the
-    time spent in each (L = f L1 + (1 - f) L2: t = start + f x window; a window wholly between
-    the two, left out as out of the model's domain, straddles it: its f is clipped to [0, 1],
-    a change in its first or last 2 % of the window being at its start or end); else (the two
-    levels too close to tell) the middle of the time between the two windows, or the start of
-    window k when they touch."""
-    before = good["level_mean_ohm"].iloc[max(0, k - 3) : k].to_numpy(float)
-    after = good["level_mean_ohm"].iloc[k : k + 3].to_numpy(float)
-    end_before, start_after = float(good["end_s"].iloc[k - 1]), float(good["start_s"].iloc[k])
-    fallback = 0.5 * (end_before + start_after) if start_after > end_before else start_after
-    l1, l2 = float(np.median(before)), float(np.median(after))
-    spread = max(np.ptp(before), np.ptp(after), 1e-12)
-    if abs(l1 - l2) < 10.0 * spread:
-        return fallback
-    lo, hi = float(good["start_s"].iloc[k - 1]), float(good["end_s"].iloc[k])
-    near = windows[(windows["start_s"] >= lo) & (windows["end_s"] <= hi)]
-    near = near[np.isfinite(near.get("level_mean_ohm", pd.Series(dtype=float)))]
-    best, best_t = 0.5, fallback
-    for _, w in near.iterrows():
-        f = (float(w["level_mean_ohm"]) - l2) / (l1 - l2)
-        if w["start_s"] >= end_before - 1e-9 and w["end_s"] <= start_after + 1e-9:
-            f = min(1.0, max(0.0, f))
-        elif not 0.02 < f < 0.98:
-            continue
-        if abs(f - 0.5) <= best:
-            best, best_t = abs(f - 0.5), float(w["start_s"]) + f * float(w["end_s"] - w["start_s"])
-    return best_t
-
-
 def stretches_and_changes(
     windows: pd.DataFrame,
     hop_s: float,
@@ -517,8 +226,8 @@ def stretches_and_changes(
     epsilon when it raises none (a change below ``load_threshold`` within one regime).
     ``bias_ratio``, ``stretch_model`` (the model's ``stretch``): as :func:`combine_stretch`'s."""
     check_settings(hop_s, false_alarm_per_hour, load_threshold)
-    good = usable(windows)
-    if good.empty:
+    good, assessed = usable(windows), assessed_windows(windows)
+    if good.empty and assessed.empty:
         return [], [], []
     if len(good) > 1 and float((good["end_s"] - good["start_s"]).median()) > hop_s * (1 + 1e-9):
         # overlapping windows share samples: their residuals about a running median understate
@@ -527,11 +236,18 @@ def stretches_and_changes(
         good = non_overlapping(good)
         if len(good) > 1:
             hop_s = float(np.median(np.diff(good["start_s"].to_numpy(float))))
-    cps = change_points(good, hop_s, false_alarm_per_hour)
-    edges = [0] + [k for k, _ in cps] + [len(good)]
-    prob = {k: p for k, p in cps}
-    times = [change_time(windows, good, k) for k in edges[1:-1]]
-    bounds = [float(good["start_s"].iloc[0]), *times, float(good["end_s"].iloc[-1])]
+    load = change_points(good, hop_s, false_alarm_per_hour) if len(good) else []
+    # row of good where a stretch starts: [time, probability, whether the condition changed]
+    at = {k: [change_time(windows, good, k), p, False] for k, p in load}
+    for k, t, p, half in condition_changes(good, assessed, false_alarm_per_hour):
+        # a load change between the two assessments is the same change, timed by the level
+        near = [j for j in at if abs(at[j][0] - t) <= half + 1e-9]
+        at.update({near[0]: [*at[near[0]][:2], True]} if near else {k: [t, p, True]})
+    edges = [0, *sorted(at), len(good)]
+    times = [at[k][0] for k in edges[1:-1]]
+    frames = [f for f in (good, assessed) if len(f)]
+    first = min(float(f["start_s"].iloc[0]) for f in frames)
+    bounds = [first, *times, max(float(f["end_s"].iloc[-1]) for f in frames)]
     stretches = []
     for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
         part = good.iloc[a:b]
@@ -539,13 +255,16 @@ def stretches_and_changes(
         inside = (part["start_s"] >= bounds[i] - 1e-9) & (part["end_s"] <= bounds[i + 1] + 1e-9)
         if inside.sum() >= 1:
             part = part[inside]
+        t = assessed["start_s"]
+        last = i == len(edges) - 2
+        mine = assessed[(t >= bounds[i] - 1e-9) & ((t < bounds[i + 1]) | last)]
         s = {"start_s": bounds[i], "end_s": bounds[i + 1]}
-        s.update(combine_stretch(part, bias_ratio, stretch_model))
+        s.update(combine_stretch(part, bias_ratio, stretch_model, mine if len(assessed) else None))
         stretches.append(s)
     changes, alarm_list = [], []
     for k, t, before, after in zip(edges[1:-1], times, stretches[:-1], stretches[1:], strict=True):
-        p = prob.get(k, 1.0)
-        found = alarms(before, after, t, p, load_threshold)
+        p = at[k][1]
+        found = alarms(before, after, t, p, load_threshold, condition=at[k][2])
         what = "; ".join(a["what"] for a in found) or _described(before, after)
         changes.append({"time_s": t, "what": what, "probability": p})
         alarm_list.extend(found)
@@ -565,8 +284,12 @@ def _described(before: dict, after: dict) -> str:
     return ", ".join(parts) + " (below the alarm thresholds)"
 
 
-def alarms(before: dict, after: dict, time_s: float, p_change: float, load_threshold: float):
-    """The alarms of one change: load beyond the threshold, regime, condition."""
+def alarms(
+    before: dict, after: dict, time_s: float, p_change: float, load_threshold: float, condition=True
+):
+    """The alarms of one change: load beyond the threshold, regime, and the condition where
+    ``condition`` (its own detector found the change: the few assessments of a stretch cut by
+    a change of load state do not make a change of condition)."""
     out = []
     if "radial_load_n" in before:
         rel = after["radial_load_n"] / before["radial_load_n"] - 1.0
@@ -584,7 +307,7 @@ def alarms(before: dict, after: dict, time_s: float, p_change: float, load_thres
                 }
             )
     for name in CLASS_OUTPUTS:
-        if name not in before or name not in after:
+        if name not in before or name not in after or (name == "condition" and not condition):
             continue
         keys = [k for k in before if k.startswith(f"{name}_probability_")]
         same = sum(before[k] * after.get(k, 0.0) for k in keys)

@@ -21,6 +21,10 @@ window, or, with ``track_speed``, the ball-pass frequency found in the previous 
 (the estimate searches +-1 % around the expected one, so the speed may drift by up to ~1 %
 per window).
 
+With a condition model, one window every ``condition_every_s`` is assessed for the bearing's
+condition as well (:mod:`signatelec.estimation.health`: the first full window of a block once
+that much trace has passed; the others' condition columns stay empty).
+
 The per-window table then goes to :mod:`signatelec.estimation.evidence` (change points,
 stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the output directory.
 """
@@ -37,12 +41,14 @@ import numpy as np
 import pandas as pd
 
 from signatelec.estimation.analysis import analyse_windows
+from signatelec.estimation.diagnose import CONFIDENT_CONDITION
 from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
-from signatelec.estimation.features import trace_feature_names, window_features
+from signatelec.estimation.features import trace_feature_names, trace_features, window_features
+from signatelec.estimation.health import CONDITION_EVERY_S, assess_window
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.ripple import find_ripple
-from signatelec.measurement.sanity import check_level
+from signatelec.measurement.sanity import check_level, defect_line_of
 from signatelec.measurement.stream import CHUNK_ROWS, read_chunks
 from signatelec.measurement.traces import (
     MIN_BALL_PASSES,
@@ -106,6 +112,7 @@ class MonitorSettings:
     follow: bool = False
     follow_idle_s: float | None = None
     chunk_rows: int = CHUNK_ROWS
+    condition_every_s: float | None = CONDITION_EVERY_S
 
     @property
     def hop(self) -> float:
@@ -130,6 +137,14 @@ class MonitorSettings:
         for name, value in (("--window", s.window_s), ("--hop", s.hop)):
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise TraceError(f"{name} {value!r}: must be a duration > 0 s")
+        every = s.condition_every_s
+        if every is not None and not (
+            isinstance(every, int | float) and math.isfinite(every) and every >= s.hop
+        ):
+            raise TraceError(
+                f"--condition-every {every!r}: must be a duration >= --hop ({s.hop:g} s), or 0 "
+                "for no condition"
+            )
         if s.hop > s.window_s:
             raise TraceError(
                 f"--hop {s.hop:g}: longer than --window {s.window_s:g}; samples would be skipped"
@@ -197,13 +212,16 @@ def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: floa
     return float(settings.omega_rad_s)
 
 
-def _screen(trace, omega, model: LoadStateModel, first: bool, speed: str | None = None):
+def _screen(trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=WINDOW_S):
     """(ripple status, note) of a block's first SCREEN_S, or TraceError naming ``speed`` (what
     the user gave for ``omega``: :func:`_speed_given`). A later block whose
     first SCREEN_S shows the line elsewhere has its last SCREEN_S screened too, and is refused
     only when both do: a change of state within the screened trace joins two ripples whose
     phases do not continue, which can move the periodogram's peak out of the tolerance (a
-    calibration record's zero-to-preload step 0.24 s into a screen put it at +0.56 %)."""
+    calibration record's zero-to-preload step 0.24 s into a screen put it at +0.56 %). A line
+    elsewhere that lies on a defect's line is kept (status ``defect``) when the condition model
+    confidently calls that very condition on the block's first ``window_s``, as ``estimate``
+    keeps a trace (:func:`_defect_explains`)."""
     n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
     r = trace.resistance_ohm[:n]
     note = None
@@ -214,9 +232,26 @@ def _screen(trace, omega, model: LoadStateModel, first: bool, speed: str | None 
         again = find_ripple(trace.resistance_ohm[-n:], trace.sample_rate_hz, omega)
         if again.status not in ("elsewhere", "constant"):
             ripple = again
+    if ripple.status == "elsewhere" and _defect_explains(trace, omega, model, ripple, window_s):
+        return "defect", note if first else None
     if ripple.status in ("elsewhere", "constant"):
         raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
     return ripple.status, note if first else None
+
+
+def _defect_explains(trace, omega: float, model: LoadStateModel, ripple, window_s: float) -> bool:
+    """Whether the strongest line, away from the ball-pass frequency, is a defect's
+    (:func:`~signatelec.measurement.sanity.defect_line_of`) that the condition model confidently
+    calls on the block's first ``window_s`` (its training traces' length)."""
+    fs = trace.sample_rate_hz
+    seg = trace.resistance_ohm[: int(round(window_s * fs))]
+    condition = getattr(model, "condition", None)
+    line = None if condition is None else defect_line_of(ripple.frequency_hz, omega, seg.size / fs)
+    if line is None:
+        return False
+    keys, _ = assess_window(seg, fs, omega, trace_features(seg, fs, omega), condition)
+    p = keys.get(f"condition_probability_{line[0]}")
+    return keys["condition"] == line[0] and p is not None and p >= CONFIDENT_CONDITION
 
 
 def _speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: float, first):
@@ -292,6 +327,8 @@ class _Windows:
         self.first = True
         self.ripple = "unchecked"  # the last screening's ripple status
         self.next_screen_s = -math.inf
+        self.next_condition_s = -math.inf  # when the next window's condition is due
+        self.condition_noted = False
         self.pending: list[dict] = []  # windows waiting for the model
         self.unmeasured: list[tuple] = []  # (row, analysis) of windows waiting for features
 
@@ -377,6 +414,7 @@ class _Windows:
         except ValueError as exc:
             for row, _, _ in windows:
                 row["status"] = f"refused: {exc}"
+                row.pop("_condition", None)
             return
         lows, highs = x.min(axis=1).tolist(), x.max(axis=1).tolist()
         for (row, _, omega), a, low, high in zip(windows, analyses, lows, highs, strict=True):
@@ -405,6 +443,20 @@ class _Windows:
                 # the found line predicts the next window's speed (kinematics are linear in it)
                 self.tracked = found[i] / (expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP))
             row["_features"] = table[i]
+            if "_condition" in row:
+                self._assess(row, table[i], analyses[i])
+
+    def _assess(self, row: dict, features: np.ndarray, analysis) -> None:
+        """The bearing's condition of a window due for one (:mod:`~signatelec.estimation.
+        health`), into its row; why a window was not assessed goes to the notes once."""
+        segment, fs, omega = row.pop("_condition")
+        names = trace_feature_names(analysis.n_harmonics)
+        named = dict(zip(names, features.tolist(), strict=True))
+        keys, note = assess_window(segment, fs, omega, named, self.model.condition, analysis)
+        row.update(keys)
+        if note and not self.condition_noted:
+            self.table.notes.append(f"at t = {row['start_s']:.6g} s: {note}")
+            self.condition_noted = True
 
     def _estimate(self, lo, hi, start, n_per) -> None:
         clock = time.process_time()
@@ -425,7 +477,9 @@ class _Windows:
             )
             if self.first or start >= self.next_screen_s:
                 given = _speed_given(self.s, omega_block, start, self.t[hi - 1], self.first)
-                ripple, note = _screen(trace, omega_block, self.model, self.first, given)
+                ripple, note = _screen(
+                    trace, omega_block, self.model, self.first, given, self.s.window_s
+                )
                 self.ripple, self.next_screen_s = ripple, start + SCREEN_EVERY_S
                 if note:
                     self.table.notes.append(note)
@@ -435,6 +489,12 @@ class _Windows:
                 raise
             status, trace = f"refused: {exc}", None
         self.first = False
+        every = self.s.condition_every_s
+        due = (
+            getattr(self.model, "condition", None) is not None
+            and every is not None
+            and start >= self.next_condition_s - 0.5 * self.s.hop
+        )
         todo = []  # (row, segment, omega) of the windows to measure
         for k in range(n_per):
             t_start = start + k * self.s.hop
@@ -461,6 +521,9 @@ class _Windows:
                 if short := _window_passes(self.s.window_s, omega):
                     row["status"] = f"refused: {short}"
                     continue
+            if due and seg.size == win_n:
+                row["_condition"] = (seg.copy(), trace.sample_rate_hz, omega)
+                due, self.next_condition_s = False, t_start + every
             if self.s.track_speed and speed is None:
                 # the speed comes from the previous window's line: one window at a time
                 self._measure([(row, seg, self.tracked)], trace.sample_rate_hz)
@@ -512,7 +575,12 @@ def monitor_trace(
         table.interrupted = True
     cutter.finish()
     windows = table.frame()
-    if len(windows) and not (windows["status"] == "ok").any():
+    # a window whose condition was assessed answers too (a spall can take every window's load
+    # features out of the load model's domain)
+    answered = windows["status"] == "ok" if len(windows) else pd.Series(dtype=bool)
+    if "condition" in windows:
+        answered |= windows["condition"].notna()
+    if len(windows) and not answered.any():
         raise TraceError(
             f"{source}: none of its {len(windows)} windows carries an estimate; the first: "
             f"{windows['status'].iloc[0]}"

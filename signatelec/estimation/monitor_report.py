@@ -4,13 +4,15 @@
 (a temporary directory exchanged with ``DIR`` in one rename, the marker, nothing half-written):
 
 - ``windows.parquet``: one row per window (times, speed, resistance envelope, the estimate of
-  ``signatelec estimate`` with intervals and class probabilities, in-domain score, ``status``);
+  ``signatelec estimate`` with intervals and class probabilities, in-domain score, ``status``;
+  the bearing's ``condition`` with its probabilities and spall length on the assessed windows);
 - ``summary.json``: the trace, the settings, ``stretches`` (``start_s``, ``end_s``,
   ``radial_load_n`` with ``_low`` and ``_high``, ``epsilon``, ``clearance_m``, ``regime``,
-  ``regime_probability``, ...), ``changes`` (``time_s``, ``what``, ``probability``) and
-  ``alarms`` (``time_s``, ``kind``, ``what``, ``probability``);
+  ``regime_probability``, ``condition``, ``condition_probability``, ...), ``changes``
+  (``time_s``, ``what``, ``probability``) and ``alarms`` (``time_s``, ``kind``: load, regime or
+  condition, ``what``, ``probability``);
 - ``monitor.png``: resistance envelope, F_r with its band (windows and stretches), regime
-  probabilities and alarms against time.
+  probabilities and the probability that the bearing is not healthy, alarms against time.
 """
 
 from __future__ import annotations
@@ -67,12 +69,14 @@ def qualify(
     does, and were read right; an SNR rule flagged 32 of 140 acceptance stretches, all right);
     a speed outside the model's training range,
     an extrapolation; features as atypical as the 1 % most atypical training traces; windows
-    longer than the training windows, ``window_s`` above
+    longer than the training windows, a condition confidently not healthy (the load-state
+    models learnt healthy bearings), ``window_s`` above
     :data:`~signatelec.estimation.monitor.WINDOW_S`, whose length-dependent features
     (:data:`~signatelec.estimation.features.LENGTH_DEPENDENT`) the model never saw) and
     ``regime_confident`` (the regime probability at least
     :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). Returns
     the warnings as notes naming their stretch (the window's length: one note for all)."""
+    from signatelec.estimation.diagnose import CONFIDENT_CONDITION
     from signatelec.estimation.domain import WARN_SCORE
     from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 
@@ -102,6 +106,13 @@ def qualify(
                 warnings.append(
                     f"median in-domain score {score:.2g} (below {WARN_SCORE:g}): the windows are "
                     "unlike the training traces, the answer is an extrapolation"
+                )
+        condition = s.get("condition")
+        if "radial_load_n" in s and condition not in (None, "healthy"):
+            if (s.get("condition_probability") or 0.0) >= CONFIDENT_CONDITION:
+                warnings.append(
+                    f"condition {condition}: the load-state models learnt healthy bearings, the "
+                    "load state is an extrapolation"
                 )
         notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
         if long_window:
@@ -216,7 +227,7 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
         ax.plot(t, ok["radial_load_n"], ".", color="C0", ms=2, label="window estimate")
     # the stretches' bands as one collection and their estimates as one line broken by NaN
     # (an artist per stretch cost ~1 ms each to build and draw: 120 stretches in an hour)
-    stretches = summary["stretches"]
+    stretches = [s for s in summary["stretches"] if "radial_load_n" in s]
     if stretches:
         ax.add_collection(
             PolyCollection(
@@ -250,6 +261,10 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
             lw=2,
             label=c.removeprefix("regime_probability_"),
         )
+    healthy = "condition_probability_healthy"
+    if any(healthy in s for s in summary["stretches"]):
+        fault = [{**s, "fault": 1.0 - s.get(healthy, np.nan)} for s in summary["stretches"]]
+        ax.plot(*_steps(fault, "fault"), "k--", lw=1.2, label="not healthy")
     ax.set_ylim(-0.02, 1.02)
     ax.set_ylabel("regime probability")
     ax.set_xlabel("time (s)")
@@ -303,13 +318,19 @@ def format_summary(summary: dict) -> str:
     lines += [f"note: {n}" for n in summary["notes"]]
     lines.append(f"{len(summary['stretches'])} stretches (90 % intervals):")
     for s in summary["stretches"]:
-        lines.append(
-            f"  {s['start_s']:9.3f}-{s['end_s']:9.3f} s  F_r {s['radial_load_n']:.0f} N "
-            f"[{s['radial_load_n_low']:.0f}, {s['radial_load_n_high']:.0f}]  epsilon "
-            f"{s['epsilon']:.3f}  clearance {s['clearance_m'] * 1e6:+.1f} um  {s['regime']} "
-            f"({s['regime_probability']:.2f})"
-            + ("" if s.get("regime_confident", True) else ", not confident")
-        )
+        line = f"  {s['start_s']:9.3f}-{s['end_s']:9.3f} s  "
+        if "radial_load_n" in s:
+            line += (
+                f"F_r {s['radial_load_n']:.0f} N [{s['radial_load_n_low']:.0f}, "
+                f"{s['radial_load_n_high']:.0f}]  epsilon {s['epsilon']:.3f}  clearance "
+                f"{s['clearance_m'] * 1e6:+.1f} um  {s['regime']} ({s['regime_probability']:.2f})"
+                + ("" if s.get("regime_confident", True) else ", not confident")
+            )
+        else:
+            line += "no load estimate (every window out of the load model's domain)"
+        if "condition" in s:
+            line += f"  condition {s['condition']} ({s['condition_probability']:.2f})"
+        lines.append(line)
     for a in summary["alarms"]:
         lines.append(
             f"alarm at {a['time_s']:.3f} s: {a['what']} (probability {a['probability']:.3f})"

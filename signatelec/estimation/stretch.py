@@ -28,25 +28,23 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from signatelec.estimation.condition import HEALTHY
 from signatelec.estimation.domain import REFUSE_SCORE
 
 
-def stretch_estimate(windows: pd.DataFrame, stretch_model, condition: str | None) -> dict | None:
+def stretch_estimate(windows: pd.DataFrame, stretch_model) -> dict | None:
     """The ``stretch_model``'s estimate (:meth:`~signatelec.estimation.models.LoadStateModel.
     predict_one`) of the windows' mean features, or None: no stretch model or no window, a
-    feature not kept or not finite, mean features unlike every training stretch (in-domain
+    feature not kept or not finite, or mean features unlike every training stretch (in-domain
     score below :data:`~signatelec.estimation.domain.REFUSE_SCORE`, as ``estimate`` refuses a
-    trace), or a stretch whose ``condition`` is known and not healthy
-    (the stretch model learnt healthy bearings only; the monitor's windows carry no condition
-    yet, so it answers for every stretch). It learnt stretches of 3-40 windows; a segment
-    between two changes holds at least 3, and leaving out the windows that straddle a change
-    can leave one or two: the model answers them too, so that the two stretches of a change
-    are read by one model (the windows' summed evidence is far surer of itself, and a regime
-    alarm could come from the change of estimator)."""
+    trace). It learnt healthy bearings, as the window model did: a stretch whose condition is
+    confidently another is answered all the same, and the monitor's summary warns that its load
+    state is an extrapolation (:func:`~signatelec.estimation.monitor_report.qualify`). It
+    learnt stretches of 3-40 windows; a segment between two changes holds at least 3, and
+    leaving out the windows that straddle a change can leave one or two: the model answers them
+    too, so that the two stretches of a change are read by one model (the windows' summed
+    evidence is far surer of itself, and a regime alarm could come from the change of
+    estimator)."""
     if stretch_model is None or windows.empty:
-        return None
-    if condition is not None and condition != HEALTHY:
         return None
     if any(name not in windows for name in stretch_model.features):
         return None

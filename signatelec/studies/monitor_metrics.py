@@ -426,7 +426,7 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "true stretch is compared with the reported stretch overlapping it most.",
         "",
         "**Change detection.** Each window is weighted by its own local scatter "
-        "(`change_points` of `signatelec/estimation/evidence.py`): the model's outputs "
+        "(`change_points` of `signatelec/estimation/changes.py`): the model's outputs "
         "scatter up to 17x more in one state than in another, and one variance pooled over a "
         "record read a noisy state's windows as changes. Every change point is reported (none "
         "is merged away for want of a load step beyond the threshold or of another estimated "

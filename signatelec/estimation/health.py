@@ -1,0 +1,93 @@
+"""The bearing's health over a long trace: a window's condition now and then, and where it changes.
+
+The condition model (:mod:`signatelec.estimation.condition`, through :func:`~signatelec.
+estimation.diagnose.assess_condition`) reads a trace of a few cage revolutions: the default
+model learnt from traces of 3.8-8.9 (0.12-0.28 s at 500 rad/s), so the monitor's 0.2 s window
+is one it can read as it is. Its envelope analysis (the spectral-kurtosis band, the Hilbert
+envelope, two spectra; the window's own trace analysis reused) costs ~4 ms for a 0.2 s window
+at 50 kHz, ~6 times the window's load-state analysis: every window would cost ~75 s of CPU an
+hour of trace, one every 10 s ~1.5 s (the monitor's whole budget at 200x real time is 18 s).
+A spall, once it has appeared, persists and grows over many hours of running, and on-line
+condition monitoring systems take their snapshots minutes apart, so the monitor assesses one
+window every :data:`CONDITION_EVERY_S` (the first full window of a block once that much trace
+has passed; ~0.25 s of CPU an hour) and leaves the others' condition empty;
+``--condition-every`` down to the hop assesses more.
+
+:func:`assess_window` asks the condition model about a window; its result keys are the
+window's ``condition`` columns. :func:`condition_changes` gives the change detector
+(:func:`~signatelec.estimation.changes.change_points`) the assessed windows' log-odds, a
+series of its own at the assessments' cadence, and places each change it finds halfway between
+the last assessment before and the first after, so that a defect's onset is timed to within
+half the cadence (+-30 s at the default); the detector needs :data:`~signatelec.estimation.
+changes.MIN_SEGMENT` assessments on either side (3 min at the default).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from signatelec.estimation.changes import change_points
+from signatelec.estimation.condition import SEVERITY_TARGET
+from signatelec.estimation.diagnose import LINE_KEYS, assess_condition
+
+#: Trace between two assessments of the condition, s (module docstring).
+CONDITION_EVERY_S = 60.0
+#: Prefix of a window's condition probabilities.
+PROBABILITY = "condition_probability_"
+#: Floor of a probability before its log (a saturated classifier's 0).
+FLOOR = 1e-6
+
+
+def assess_window(
+    segment, sample_rate_hz: float, omega_rad_s: float, features: dict, model, analysis=None
+):
+    """(keys, note) of one window: ``condition``, ``condition_probability_<name>``,
+    ``condition_in_domain_score``, the spall length with its interval and the characteristic
+    line that names the condition (:data:`~signatelec.estimation.diagnose.LINE_KEYS`; None where
+    not assessed), and the reason it was not assessed (None if it was). ``features``: the window's
+    load-state features (:func:`~signatelec.estimation.features.trace_features`' names)."""
+    out, notes = assess_condition(
+        segment, sample_rate_hz, omega_rad_s, features, model, trace_analysis=analysis
+    )
+    keys = ["condition", "condition_in_domain_score", SEVERITY_TARGET]
+    keys += [f"{SEVERITY_TARGET}_low", f"{SEVERITY_TARGET}_high", *LINE_KEYS]
+    row = {k: out.get(k) for k in keys}
+    row.update({k: v for k, v in out.items() if k.startswith(PROBABILITY)})
+    missing = out.get("condition") is None
+    return row, (notes[0] if missing and notes else None)
+
+
+def assessed_windows(windows: pd.DataFrame) -> pd.DataFrame:
+    """The windows whose condition was assessed (whatever their load state's status: a spall
+    can take the load features out of the load model's domain), in time order."""
+    pc = [c for c in windows.columns if c.startswith(PROBABILITY)]
+    if not pc:
+        return windows.iloc[0:0]
+    done = np.all(np.isfinite(windows[pc].to_numpy(float)), axis=1)
+    return windows[done].sort_values("start_s").reset_index(drop=True)
+
+
+def condition_changes(
+    good: pd.DataFrame, assessed: pd.DataFrame, false_alarm_per_hour: float
+) -> list[tuple[int, float, float, float]]:
+    """[(row of ``good`` where a stretch starts, time, probability, half the time between the
+    two assessments)] of the changes of the ``assessed`` windows' condition: the change
+    detector on their log-odds against the last class, at their cadence
+    (``false_alarm_per_hour`` as for the load); a change is halfway between the last
+    assessment before and the first after."""
+    pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
+    if len(pc) < 2 or len(assessed) < 2:
+        return []
+    logp = np.log(np.clip(assessed[pc].to_numpy(float), FLOOR, 1.0))
+    x = (logp - logp.mean(axis=1, keepdims=True))[:, :-1]
+    start = assessed["start_s"].to_numpy(float)
+    every_s = float(np.median(np.diff(start)))
+    found = change_points(assessed, every_s, false_alarm_per_hour, series=x)
+    good_start = good["start_s"].to_numpy(float)
+    out = []
+    for j, p in found:
+        t = 0.5 * (start[j - 1] + start[j])
+        half = 0.5 * (start[j] - start[j - 1])
+        out.append((int(np.searchsorted(good_start, t - 1e-9)), t, p, half))
+    return out

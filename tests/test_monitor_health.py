@@ -1,0 +1,224 @@
+"""The bearing's health over a long record: a condition assessed now and then, and its change.
+
+Records are tiled from the quasi-static tier (as in tests/test_monitor.py) with 0.2 % white
+noise; a spall adds the rectangular pulses of tests/synthetic_traces.py at its characteristic
+line (Randall and Antoni 2011, eqs 1-4: BPFO for the outer race, BPFI modulated by the load
+zone at the shaft speed for the inner), lasting the time the contact takes to cross it. The
+condition model is trained on 0.2 s windows of the same tiles with each condition added.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from threadpoolctl import threadpool_limits
+
+from signatelec.config.bearing import Bearing
+from signatelec.config.scene import Scene
+from signatelec.engines.simulate import simulate
+from signatelec.estimation import envelope
+from signatelec.estimation.condition import ConditionEstimator
+from signatelec.estimation.condition_features import condition_features
+from signatelec.estimation.evidence import stretches_and_changes
+from signatelec.estimation.features import trace_features
+from signatelec.estimation.models import LoadStateEstimator
+from signatelec.estimation.monitor import MonitorSettings, monitor_trace
+from signatelec.estimation.persistence import save_model
+from signatelec.estimation.training import DEFAULT_TABLE, train_condition, train_model
+from signatelec.physics.kinematics import characteristic_frequencies_hz
+from signatelec.studies.monitor_records import whole_passes
+from tests.cli_run import run_main
+from tests.synthetic_traces import spalled_trace
+
+FS = 20000.0
+OMEGA = 500.0
+NOISE = 0.002
+KINDS = ("healthy", "outer", "inner")
+
+
+@pytest.fixture(autouse=True)
+def _one_thread():
+    with threadpool_limits(1):
+        yield
+
+
+@pytest.fixture(scope="module")
+def tile():
+    """One ball-pass-periodic tile of the quasi-static tier: zero clearance at 5000 N."""
+    scene = Scene().with_overrides(fidelity="quasistatic", radial_load_n=5000.0, duration_s=0.06)
+    sig = simulate(scene).signals
+    return whole_passes(sig.loc[sig["phase"] == "steady", "resistance_ohm"].to_numpy(), FS, OMEGA)
+
+
+def _tiled(tile, seconds: float, offset: int = 0) -> np.ndarray:
+    n = int(round(seconds * FS))
+    return np.tile(tile, n // tile.size + 2)[offset : offset + n]
+
+
+def _spall(kind: str, seconds: float, seed: int, height: float = 0.04) -> np.ndarray:
+    """The relative change a spall of ``kind`` makes (0 for healthy), 1 mm long."""
+    if kind == "healthy":
+        return np.zeros(int(round(seconds * FS)))
+    pulses = spalled_trace(
+        kind, duration_s=seconds, noise=0.0, pulse_rel=height, level=1.0, length_m=1e-3,
+        width_s=None, phase=None, seed=seed,
+    )  # fmt: skip
+    return pulses - spalled_trace("healthy", duration_s=seconds, noise=0.0, level=1.0)
+
+
+@pytest.fixture(scope="module")
+def model_file(tile, tmp_path_factory):
+    """A small load-state model (the shipped table, 40 rounds) with a condition model trained
+    on 0.2 s windows of the tile with each condition of :data:`KINDS` added (60 each: the
+    condition model's domain has 60 features)."""
+    table = pd.read_parquet(DEFAULT_TABLE)
+    rng = np.random.default_rng(3)
+    rows = []
+    with threadpool_limits(1):
+        model = train_model(table, estimator=LoadStateEstimator(max_iter=40, n_splits=2))
+        for kind in KINDS:
+            for _ in range(60):
+                base = _tiled(tile, 0.2, int(rng.integers(tile.size)))
+                extra = _spall(kind, 0.2, int(rng.integers(2**31)), rng.uniform(0.02, 0.06))
+                r = base * (1.0 + extra) * (1.0 + NOISE * rng.standard_normal(base.size))
+                feats = trace_features(r, FS, OMEGA) | condition_features(r, FS, OMEGA)
+                rows.append({"run_id": len(rows), "condition": kind, "spall_length_m": 1e-3})
+                rows[-1].update(feats)
+        model.condition = train_condition(
+            pd.DataFrame(rows), estimator=ConditionEstimator(max_iter=30, n_splits=2)
+        )
+    path = tmp_path_factory.mktemp("health") / "with_condition.model"
+    save_model(model, path)
+    return path
+
+
+def _record(tile, plan, path, seed=0):
+    """[(condition, seconds)] tiled at 5000 N with each stretch's spall and 0.2 % noise."""
+    rng = np.random.default_rng(seed)
+    parts = [
+        _tiled(tile, s) * (1.0 + _spall(kind, s, seed + i)) for i, (kind, s) in enumerate(plan)
+    ]
+    r = np.concatenate(parts)
+    r = r * (1.0 + NOISE * rng.standard_normal(r.size))
+    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
+    return path
+
+
+def _monitor(path, model_file, every_s):
+    from signatelec.estimation.persistence import load_model
+
+    model = load_model(model_file)
+    settings = MonitorSettings(omega_rad_s=OMEGA, condition_every_s=every_s)
+    windows = monitor_trace(path, model, settings).frame()
+    return windows, stretches_and_changes(windows, settings.hop)
+
+
+@pytest.mark.parametrize("kind", ["outer", "inner"])
+def test_a_spall_that_appears_is_a_condition_change(model_file, tile, tmp_path, kind):
+    """60 s healthy, then 60 s with a spall: one window in every 2 s is assessed (the others'
+    condition is empty), the change is found within the assessments' cadence of its onset,
+    alarmed as a condition change with its probability, and nothing else changes (the load is
+    the same on both sides)."""
+    path = _record(tile, [("healthy", 60.0), (kind, 60.0)], tmp_path / "spall.parquet")
+    windows, (stretches, changes, alarms) = _monitor(path, model_file, 2.0)
+    assessed = windows["condition_probability_healthy"].notna()
+    # one window per 2 s block: 60 of the 600
+    assert assessed.sum() == pytest.approx(60, abs=1)
+    assert np.allclose(np.diff(windows.loc[assessed, "start_s"]), 2.0)
+    assert [s["condition"] for s in stretches] == ["healthy", kind]
+    assert stretches[1]["condition_probability"] > 0.9
+    assert len(changes) == 1 and changes[0]["time_s"] == pytest.approx(60.0, abs=2.0)
+    kinds = [a["kind"] for a in alarms]
+    assert kinds == ["condition"] and alarms[0]["what"] == f"condition healthy -> {kind}"
+    assert alarms[0]["probability"] > 0.9
+    # the line that names it: the envelope's peak at the kinematic defect frequency (Harris &
+    # Kotzalas 2006, ch. 8), to within the 0.2 s window's resolution of 5 Hz
+    line = {"outer": "bpfo", "inner": "bpfi"}[kind]
+    faulty = windows[assessed & (windows["start_s"] > 62.0)]
+    assert (faulty["condition_line"] == line).all()
+    expected = characteristic_frequencies_hz(OMEGA, Bearing())[line]
+    assert faulty["condition_line_hz"].to_numpy() == pytest.approx(expected, rel=1e-9)
+    assert np.median(np.abs(faulty["condition_line_found_hz"] - expected)) < 5.0
+
+
+def test_a_healthy_record_raises_no_condition_change(model_file, tile, tmp_path):
+    path = _record(tile, [("healthy", 120.0)], tmp_path / "healthy.parquet", seed=5)
+    windows, (stretches, changes, alarms) = _monitor(path, model_file, 2.0)
+    assert changes == [] and alarms == []
+    assert [s["condition"] for s in stretches] == ["healthy"]
+
+
+def test_a_condition_that_is_off_costs_nothing(model_file, tile, tmp_path, monkeypatch):
+    """Without assessments the envelope analysis is never run and no condition column is
+    written; the load-state estimates are the same as with them."""
+    path = _record(tile, [("healthy", 20.0)], tmp_path / "off.parquet", seed=6)
+    with_condition, _ = _monitor(path, model_file, 2.0)
+    calls = []
+    real = envelope.analyse_envelope
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr("signatelec.estimation.diagnose.analyse_envelope", counted)
+    without, _ = _monitor(path, model_file, None)
+    assert calls == []
+    assert not [c for c in without.columns if c.startswith("condition")]
+    pd.testing.assert_series_equal(with_condition["radial_load_n"], without["radial_load_n"])
+
+
+@pytest.mark.parametrize("value", ["-1", "0.1", "nan"])
+def test_bad_condition_cadence_is_refused(model_file, tile, tmp_path, capsys, value):
+    path = _record(tile, [("healthy", 2.0)], tmp_path / "short.parquet")
+    out = tmp_path / "out"
+    code = run_main(
+        ["monitor", str(path), "--out", str(out), "--omega", "500", "--model", str(model_file),
+         "--condition-every", value, "--quiet"]
+    )  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and f"--condition-every {float(value)!r}" in err[0]
+    assert not out.exists()
+
+
+def _command(path, model_file, capsys) -> tuple[dict, str]:
+    """(summary.json, printed text) of ``signatelec monitor`` on ``path``, one assessment every
+    2 s, into ``out`` beside it."""
+    import json
+
+    out = path.parent / "out"
+    code = run_main(
+        ["monitor", str(path), "--out", str(out), "--omega", "500", "--model", str(model_file),
+         "--condition-every", "2"]
+    )  # fmt: skip
+    text = capsys.readouterr().out
+    assert code == 0, text
+    return json.loads((out / "summary.json").read_text()), text
+
+
+def test_the_command_reports_the_condition(model_file, tile, tmp_path, capsys):
+    """``signatelec monitor``: the stretches carry their condition (the spalled one also when
+    the spall takes every window's load features out of the load model's domain), the alarm
+    is printed, and the table, summary and picture are written."""
+    path = _record(tile, [("healthy", 40.0), ("inner", 40.0)], tmp_path / "rec.parquet", seed=9)
+    summary, text = _command(path, model_file, capsys)
+    out = path.parent / "out"
+    assert [s["condition"] for s in summary["stretches"]] == ["healthy", "inner"]
+    assert summary["settings"]["condition_every_s"] == 2.0
+    assert [a["kind"] for a in summary["alarms"]] == ["condition"]
+    assert "condition healthy -> inner" in text
+    windows = pd.read_parquet(out / "windows.parquet")
+    assert windows["condition"].notna().sum() == pytest.approx(40, abs=1)
+    assert (out / "monitor.png").stat().st_size > 0
+
+
+def test_a_record_of_a_spalled_bearing_answers_its_condition(model_file, tile, tmp_path, capsys):
+    """From the first block on, the inner race's line is the strongest (not the ball-pass
+    ripple): a wrong speed, unless the condition model confidently calls that very defect, as
+    ``estimate`` rules; here it does, the windows are kept, and the stretch is answered by its
+    condition alone (the spall takes the load features out of the load model's domain)."""
+    path = _record(tile, [("inner", 12.0)], tmp_path / "inner.parquet", seed=4)
+    summary, text = _command(path, model_file, capsys)
+    (stretch,) = summary["stretches"]
+    assert stretch["condition"] == "inner" and "radial_load_n" not in stretch
+    assert "no load estimate" in text
