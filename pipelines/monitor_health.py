@@ -124,6 +124,7 @@ def main() -> None:
                 "omega_rad_s": run.omega_rad_s,
                 "radial_load_n": run.radial_load_n,
                 "alarms": len(condition_alarms),
+                "alarms_p90": sum(a["probability"] >= 0.9 for a in condition_alarms),
                 "named": near[0]["what"].split(" -> ")[-1] if near else None,
                 "probability": near[0]["probability"] if near else np.nan,
                 "delay_s": near[0]["time_s"] - onset if near else np.nan,
@@ -150,7 +151,7 @@ def main() -> None:
                 if faulty
                 else None,
                 "false_alarms": None if faulty else int(g.alarms.sum()),
-                "false_alarms_p90": None if faulty else int((g.probability >= 0.9).sum()),
+                "false_alarms_p90": None if faulty else int(g.alarms_p90.sum()),
                 "called_before_right": int((g.called_before == "healthy").sum()),
                 "called_after_right": int((g.called_after == condition).sum()),
                 "median_delay_s": float(g.delay_s.median()) if faulty else None,

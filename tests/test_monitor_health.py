@@ -197,9 +197,8 @@ def _command(path, model_file, capsys) -> tuple[dict, str]:
 
 
 def test_the_command_reports_the_condition(model_file, tile, tmp_path, capsys):
-    """``signatelec monitor``: the stretches carry their condition (the spalled one also when
-    the spall takes every window's load features out of the load model's domain), the alarm
-    is printed, and the table, summary and picture are written."""
+    """``signatelec monitor``: the stretches carry their condition, the alarm is printed, and
+    the table, summary and picture are written."""
     path = _record(tile, [("healthy", 40.0), ("inner", 40.0)], tmp_path / "rec.parquet", seed=9)
     summary, text = _command(path, model_file, capsys)
     out = path.parent / "out"
@@ -222,3 +221,98 @@ def test_a_record_of_a_spalled_bearing_answers_its_condition(model_file, tile, t
     (stretch,) = summary["stretches"]
     assert stretch["condition"] == "inner" and "radial_load_n" not in stretch
     assert "no load estimate" in text
+
+
+def test_assessments_follow_a_cadence_shorter_than_a_block(model_file, tile, tmp_path):
+    """--condition-every below the 2 s block assesses that often: every second 0.2 s window."""
+    path = _record(tile, [("healthy", 10.0)], tmp_path / "dense.parquet", seed=2)
+    windows, _ = _monitor(path, model_file, 0.4)
+    assessed = windows.loc[windows["condition_probability_healthy"].notna(), "start_s"]
+    assert len(assessed) == 25 and np.allclose(np.diff(assessed), 0.4)
+
+
+def test_a_defect_line_is_a_wrong_speed_when_the_condition_is_not_assessed(
+    model_file, tile, tmp_path
+):
+    """With the condition off, nothing confirms a defect's line: the spalled record's first
+    block is refused as a wrong speed, as it is for a model without a condition model."""
+    from signatelec.estimation.persistence import load_model
+    from signatelec.measurement.traces import TraceError
+
+    path = _record(tile, [("inner", 4.0)], tmp_path / "inner.parquet", seed=4)
+    settings = MonitorSettings(omega_rad_s=OMEGA, condition_every_s=None)
+    with pytest.raises(TraceError, match="ripple at"):
+        monitor_trace(path, load_model(model_file), settings)
+
+
+# --- the condition's changes among the load's, on window tables of known content ------------
+
+
+def _table(load_of, condition_of, every_s: float, seconds: float, seed: int = 0):
+    """Windows of 0.2 s: load state ``load_of(t)`` (F_r in N, None: out of the load model's
+    domain) with 0.2 % scatter, the level R ~ F_r^(-4/3) (Hertz); the condition
+    ``condition_of(t)`` assessed every ``every_s`` with probability 0.95."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for i in range(int(round(seconds / 0.2))):
+        t = 0.2 * i
+        load = load_of(t)
+        row = {"start_s": t, "end_s": t + 0.2, "status": "ok" if load else "out of domain"}
+        if load:
+            f = load * (1.0 + 0.002 * rng.standard_normal())
+            row |= {
+                "radial_load_n": f, "radial_load_n_low": 0.99 * f, "radial_load_n_high": 1.01 * f,
+                "epsilon": 0.5 + 0.002 * rng.standard_normal(), "epsilon_low": 0.49,
+                "epsilon_high": 0.51, "clearance_m": 0.0, "clearance_m_low": -1e-6,
+                "clearance_m_high": 1e-6, "h1_rel": 1e-3 + 1e-5 * rng.standard_normal(),
+                "h2_rel": 3e-4 + 1e-5 * rng.standard_normal(),
+                "level_mean_ohm": 3e-3 * (load / 5000.0) ** (-4 / 3)
+                * (1.0 + 0.002 * rng.standard_normal()),
+            }  # fmt: skip
+        if abs(t / every_s - round(t / every_s)) < 1e-6:
+            called = condition_of(t)
+            row |= {f"condition_probability_{k}": 0.95 if k == called else 0.025 for k in KINDS}
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def test_a_spall_that_takes_the_load_out_of_domain_is_a_condition_change():
+    """Usable load windows until 60 s, none after (the spall's pulses): one change, a condition
+    alarm, the second stretch answered by its condition alone."""
+    w = _table(lambda t: 5000.0 if t < 60.0 else None, lambda t: KINDS[2 * (t >= 60.0)], 2.0, 120)
+    stretches, changes, alarms = stretches_and_changes(w, 0.2)
+    assert [s["condition"] for s in stretches] == ["healthy", "inner"]
+    assert "radial_load_n" in stretches[0] and "radial_load_n" not in stretches[1]
+    assert [a["kind"] for a in alarms] == ["condition"]
+    assert changes[0]["time_s"] == pytest.approx(60.0, abs=1.0)
+
+
+def test_condition_changes_without_a_usable_window_between_are_kept_apart():
+    """No usable load window at all; healthy, inner from 100 s, healthy again from 170 s: two
+    changes, three stretches."""
+    w = _table(lambda t: None, lambda t: KINDS[2 * (100.0 <= t < 170.0)], 2.0, 240)
+    stretches, changes, alarms = stretches_and_changes(w, 0.2)
+    assert [s["condition"] for s in stretches] == ["healthy", "inner", "healthy"]
+    assert [round(c["time_s"]) for c in changes] == [99, 169]
+    assert [a["what"] for a in alarms] == [
+        "condition healthy -> inner",
+        "condition inner -> healthy",
+    ]
+
+
+def test_a_condition_change_among_load_steps_is_alarmed_at_the_nearest_one():
+    """Load steps of 10 % every 20 s, the condition assessed once a minute, inner from 300 s:
+    the condition change lies between the assessments at 240 and 300 s and is merged into the
+    load step nearest its midpoint (280 s); every stretch after carries the spall."""
+    w = _table(
+        lambda t: 5000.0 * (1.1 if int(t // 20) % 2 else 1.0),
+        lambda t: KINDS[2 * (t >= 290.0)],
+        60.0,
+        600,
+    )
+    stretches, changes, alarms = stretches_and_changes(w, 0.2)
+    (alarm,) = [a for a in alarms if a["kind"] == "condition"]
+    assert alarm["time_s"] == pytest.approx(280.0, abs=0.3)
+    assert len(changes) == 29  # the load steps, no change of its own for the condition
+    assert {s["condition"] for s in stretches if s["start_s"] >= 280.0 - 0.3} == {"inner"}
+    assert {s["condition"] for s in stretches if s["end_s"] <= 280.0 + 0.3} == {"healthy"}

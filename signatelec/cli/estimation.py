@@ -183,7 +183,8 @@ def train(dataset, out, quiet):
     type=float,
     default=0.1,
     show_default=True,
-    help="Expected false changes per hour of trace (sets the change detector's threshold).",
+    help="Expected false changes per hour of trace, of the load state and of the condition "
+    "each (sets the change detector's threshold).",
 )
 @click.option(
     "--load-threshold",

@@ -71,14 +71,12 @@ BIAS_RATIO_WINDOWS = {
 RATIOS_BY_SOURCE = {"mean features": BIAS_RATIO, "windows": BIAS_RATIO_WINDOWS}
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"
-#: Fewest windows on either side of a change.
 #: Class outputs of the model, each with ``<name>_probability_<class>`` columns.
 CLASS_OUTPUTS = ("regime", "condition")
 #: Regression targets and the scale they are combined on.
 TARGET_SCALES = {"radial_load_n": "log", "epsilon": "linear", "clearance_m": "linear"}
 #: Default threshold of a load-change alarm (relative change of F_r).
 LOAD_THRESHOLD = 0.05
-#: Default expected number of false changes per hour of trace.
 
 
 def class_columns(windows: pd.DataFrame, name: str) -> list[str]:
@@ -129,27 +127,31 @@ def combine_classes(windows: pd.DataFrame, name: str) -> dict[str, float] | None
     return {c.removeprefix(f"{name}_probability_"): float(q) for c, q in zip(pc, p, strict=True)}
 
 
+def _named(name: str, probs: dict[str, float] | None) -> dict:
+    """A class output's keys from its probabilities: ``<name>`` (the most probable class),
+    ``<name>_probability`` and ``<name>_probability_<class>`` (none without probabilities)."""
+    if not probs:
+        return {}
+    best = max(probs, key=probs.get)
+    named = {name: best, f"{name}_probability": probs[best]}
+    return named | {f"{name}_probability_{k}": v for k, v in probs.items()}
+
+
 def combine_stretch(
-    windows: pd.DataFrame, bias_ratio: dict | None = None, stretch_model=None, assessed=None
+    windows: pd.DataFrame, bias_ratio: dict | None = None, stretch_model=None
 ) -> dict:
     """One stretch's estimate from its usable windows (``bias_ratio``: per source, as
     :data:`RATIOS_BY_SOURCE`, then per target, per estimated regime and :data:`ANY_REGIME`; a
     source it lacks takes the shipped ratios). With a
     ``stretch_model`` (:mod:`~signatelec.estimation.stretch`) that answers, the targets and the
     regime are its estimates from the windows' mean features, its interval sd the model part
-    of each target's interval (``estimated_from``: ``mean features``, else ``windows``).
-    ``assessed``: the stretch's windows whose condition was assessed, whatever their status
-    (:mod:`~signatelec.estimation.health`), which give its condition instead."""
+    of each target's interval (``estimated_from``: ``mean features``, else ``windows``)."""
     out: dict = {"n_windows": int(len(windows))}
     classes = {}
     for name in CLASS_OUTPUTS:
-        from_ = assessed if name == "condition" and assessed is not None else windows
-        probs = combine_classes(from_, name)
-        if probs:
-            best = max(probs, key=probs.get)
-            classes[name] = best
-            classes[f"{name}_probability"] = probs[best]
-            classes.update({f"{name}_probability_{k}": v for k, v in probs.items()})
+        classes |= _named(name, combine_classes(windows, name))
+    if windows.empty:  # a stretch of assessed windows only: its condition alone
+        return {**out, **classes}
     est = stretch_estimate(windows, stretch_model)
     out["estimated_from"] = "windows" if est is None else "mean features"
     ratios = {**RATIOS_BY_SOURCE, **(bias_ratio or {})}[out["estimated_from"]]
@@ -161,7 +163,7 @@ def combine_stretch(
         classes.update({f"regime_probability_{k}": v for k, v in probs.items()})
     regime = classes.get("regime", ANY_REGIME)
     for target, scale in TARGET_SCALES.items():
-        if target not in windows or windows.empty:  # a stretch of assessed windows only
+        if target not in windows:
             continue
         c = combine_target(
             windows[target],
@@ -237,14 +239,25 @@ def stretches_and_changes(
         if len(good) > 1:
             hop_s = float(np.median(np.diff(good["start_s"].to_numpy(float))))
     load = change_points(good, hop_s, false_alarm_per_hour) if len(good) else []
-    # row of good where a stretch starts: [time, probability, whether the condition changed]
-    at = {k: [change_time(windows, good, k), p, False] for k, p in load}
-    for k, t, p, half in condition_changes(good, assessed, false_alarm_per_hour):
-        # a load change between the two assessments is the same change, timed by the level
-        near = [j for j in at if abs(at[j][0] - t) <= half + 1e-9]
-        at.update({near[0]: [*at[near[0]][:2], True]} if near else {k: [t, p, True]})
-    edges = [0, *sorted(at), len(good)]
-    times = [at[k][0] for k in edges[1:-1]]
+    # each change: (row of good where the next stretch starts, time, probability, whether the
+    # condition changed), in time order; rows repeat where no usable window lies between two
+    found = [(k, change_time(windows, good, k), p, False) for k, p in load]
+    cond = condition_changes(good, assessed, false_alarm_per_hour)
+    for k, t, p, half in cond:
+        # the load change nearest, if one lies between the two assessments: the same change,
+        # timed by the level
+        near = [i for i, c in enumerate(found) if not c[3] and abs(c[1] - t) <= half + 1e-9]
+        i = min(near, key=lambda i: abs(found[i][1] - t), default=None)
+        if i is None:
+            found.append((k, t, p, True))
+        else:
+            found[i] = (*found[i][:3], True)
+    found.sort(key=lambda c: c[1])
+    rows = np.maximum.accumulate([c[0] for c in found]).tolist() if found else []
+    edges = [0, *rows, len(good)]
+    times = [c[1] for c in found]
+    cuts = [t for _, t, _, _ in cond]  # the condition's own segments: a stretch takes its own
+    segment = np.searchsorted(cuts, assessed["start_s"].to_numpy(float)) if cuts else None
     frames = [f for f in (good, assessed) if len(f)]
     first = min(float(f["start_s"].iloc[0]) for f in frames)
     bounds = [first, *times, max(float(f["end_s"].iloc[-1]) for f in frames)]
@@ -255,33 +268,35 @@ def stretches_and_changes(
         inside = (part["start_s"] >= bounds[i] - 1e-9) & (part["end_s"] <= bounds[i + 1] + 1e-9)
         if inside.sum() >= 1:
             part = part[inside]
-        t = assessed["start_s"]
-        last = i == len(edges) - 2
-        mine = assessed[(t >= bounds[i] - 1e-9) & ((t < bounds[i + 1]) | last)]
         s = {"start_s": bounds[i], "end_s": bounds[i + 1]}
-        s.update(combine_stretch(part, bias_ratio, stretch_model, mine if len(assessed) else None))
+        s.update(combine_stretch(part, bias_ratio, stretch_model))
+        if len(assessed):  # the assessments of the condition segment holding its middle
+            s = {k: v for k, v in s.items() if not k.startswith("condition")}
+            j = np.searchsorted(cuts, 0.5 * (bounds[i] + bounds[i + 1]))
+            mine = assessed if segment is None else assessed[segment == j]
+            s |= _named("condition", combine_classes(mine, "condition"))
         stretches.append(s)
     changes, alarm_list = [], []
-    for k, t, before, after in zip(edges[1:-1], times, stretches[:-1], stretches[1:], strict=True):
-        p = at[k][1]
-        found = alarms(before, after, t, p, load_threshold, condition=at[k][2])
-        what = "; ".join(a["what"] for a in found) or _described(before, after)
+    for (_, t, p, cond_changed), before, after in zip(
+        found, stretches[:-1], stretches[1:], strict=True
+    ):
+        raised = alarms(before, after, t, p, load_threshold, condition=cond_changed)
+        what = "; ".join(a["what"] for a in raised) or _described(before, after)
         changes.append({"time_s": t, "what": what, "probability": p})
-        alarm_list.extend(found)
+        alarm_list.extend(raised)
     return stretches, changes, alarm_list
 
 
 def _described(before: dict, after: dict) -> str:
     """What changed between two stretches that raise no alarm: F_r and epsilon."""
     parts = []
-    if "radial_load_n" in before:
+    if "radial_load_n" in before and "radial_load_n" in after:
         rel = after["radial_load_n"] / before["radial_load_n"] - 1.0
         parts.append(
             f"load {before['radial_load_n']:.0f} -> {after['radial_load_n']:.0f} N ({rel:+.1%})"
         )
-    if "epsilon" in before:
         parts.append(f"epsilon {before['epsilon']:.3f} -> {after['epsilon']:.3f}")
-    return ", ".join(parts) + " (below the alarm thresholds)"
+    return ", ".join(parts or ["no load estimate on one side"]) + " (below the alarm thresholds)"
 
 
 def alarms(
@@ -291,7 +306,7 @@ def alarms(
     ``condition`` (its own detector found the change: the few assessments of a stretch cut by
     a change of load state do not make a change of condition)."""
     out = []
-    if "radial_load_n" in before:
+    if "radial_load_n" in before and "radial_load_n" in after:
         rel = after["radial_load_n"] / before["radial_load_n"] - 1.0
         se = math.hypot(before["radial_load_n_se_noise"], after["radial_load_n_se_noise"])
         excess = abs(math.log1p(rel)) - math.log1p(load_threshold)

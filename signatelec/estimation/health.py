@@ -29,7 +29,9 @@ import pandas as pd
 
 from signatelec.estimation.changes import change_points
 from signatelec.estimation.condition import SEVERITY_TARGET
-from signatelec.estimation.diagnose import LINE_KEYS, assess_condition
+from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
+from signatelec.estimation.features import trace_features
+from signatelec.measurement.sanity import defect_line_of
 
 #: Trace between two assessments of the condition, s (module docstring).
 CONDITION_EVERY_S = 60.0
@@ -58,6 +60,25 @@ def assess_window(
     return row, (notes[0] if missing and notes else None)
 
 
+def defect_explains(trace, omega_rad_s: float, model, ripple, window_s: float, screened: int):
+    """Whether the strongest line of the first ``screened`` samples of a block's ``trace``,
+    away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.sanity.
+    defect_line_of`) that the condition ``model`` confidently calls on the block's first
+    ``window_s`` (its training traces' length), as ``estimate`` keeps a trace whose strongest
+    line a confident call of that very condition explains."""
+    fs = trace.sample_rate_hz
+    seg = trace.resistance_ohm[: int(round(window_s * fs))]
+    line = (
+        None if model is None else defect_line_of(ripple.frequency_hz, omega_rad_s, screened / fs)
+    )
+    if line is None:
+        return False
+    feats = trace_features(seg, fs, omega_rad_s)
+    keys, _ = assess_window(seg, fs, omega_rad_s, feats, model)
+    p = keys.get(f"{PROBABILITY}{line[0]}")
+    return keys["condition"] == line[0] and p is not None and p >= CONFIDENT_CONDITION
+
+
 def assessed_windows(windows: pd.DataFrame) -> pd.DataFrame:
     """The windows whose condition was assessed (whatever their load state's status: a spall
     can take the load features out of the load model's domain), in time order."""
@@ -75,7 +96,9 @@ def condition_changes(
     two assessments)] of the changes of the ``assessed`` windows' condition: the change
     detector on their log-odds against the last class, at their cadence
     (``false_alarm_per_hour`` as for the load); a change is halfway between the last
-    assessment before and the first after."""
+    assessment before and the first after, or where the usable load windows stop or start
+    between the two (a spall's pulses can take them out of the load model's domain); in time
+    order."""
     pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
     if len(pc) < 2 or len(assessed) < 2:
         return []
@@ -83,11 +106,17 @@ def condition_changes(
     x = (logp - logp.mean(axis=1, keepdims=True))[:, :-1]
     start = assessed["start_s"].to_numpy(float)
     every_s = float(np.median(np.diff(start)))
-    found = change_points(assessed, every_s, false_alarm_per_hour, series=x)
+    found = sorted(change_points(assessed, every_s, false_alarm_per_hour, series=x))
     good_start = good["start_s"].to_numpy(float)
+    good_end = good["end_s"].to_numpy(float)
+    usable = (assessed["status"] == "ok").to_numpy() if "status" in assessed else None
     out = []
     for j, p in found:
-        t = 0.5 * (start[j - 1] + start[j])
-        half = 0.5 * (start[j] - start[j - 1])
+        a, b = start[j - 1], start[j]
+        t, half = 0.5 * (a + b), 0.5 * (b - a)
+        between = (good_start > a) & (good_start < b)
+        if usable is not None and usable[j - 1] != usable[j] and between.any():
+            # the load windows stop (or start) between the two: the change is there
+            t = float(good_end[between][-1] if usable[j - 1] else good_start[between][0])
         out.append((int(np.searchsorted(good_start, t - 1e-9)), t, p, half))
     return out

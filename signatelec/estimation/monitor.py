@@ -41,14 +41,13 @@ import numpy as np
 import pandas as pd
 
 from signatelec.estimation.analysis import analyse_windows
-from signatelec.estimation.diagnose import CONFIDENT_CONDITION
 from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
-from signatelec.estimation.features import trace_feature_names, trace_features, window_features
-from signatelec.estimation.health import CONDITION_EVERY_S, assess_window
+from signatelec.estimation.features import trace_feature_names, window_features
+from signatelec.estimation.health import CONDITION_EVERY_S, assess_window, defect_explains
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.ripple import find_ripple
-from signatelec.measurement.sanity import check_level, defect_line_of
+from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import CHUNK_ROWS, read_chunks
 from signatelec.measurement.traces import (
     MIN_BALL_PASSES,
@@ -139,11 +138,14 @@ class MonitorSettings:
                 raise TraceError(f"{name} {value!r}: must be a duration > 0 s")
         every = s.condition_every_s
         if every is not None and not (
-            isinstance(every, int | float) and math.isfinite(every) and every >= s.hop
+            isinstance(every, int | float)
+            and not isinstance(every, bool)
+            and math.isfinite(every)
+            and every >= s.hop
         ):
             raise TraceError(
                 f"--condition-every {every!r}: must be a duration >= --hop ({s.hop:g} s), or 0 "
-                "for no condition"
+                "for no condition (None in Python)"
             )
         if s.hop > s.window_s:
             raise TraceError(
@@ -212,16 +214,17 @@ def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: floa
     return float(settings.omega_rad_s)
 
 
-def _screen(trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=WINDOW_S):
+def _screen(trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=None):
     """(ripple status, note) of a block's first SCREEN_S, or TraceError naming ``speed`` (what
     the user gave for ``omega``: :func:`_speed_given`). A later block whose
     first SCREEN_S shows the line elsewhere has its last SCREEN_S screened too, and is refused
     only when both do: a change of state within the screened trace joins two ripples whose
     phases do not continue, which can move the periodogram's peak out of the tolerance (a
     calibration record's zero-to-preload step 0.24 s into a screen put it at +0.56 %). A line
-    elsewhere that lies on a defect's line is kept (status ``defect``) when the condition model
-    confidently calls that very condition on the block's first ``window_s``, as ``estimate``
-    keeps a trace (:func:`_defect_explains`)."""
+    elsewhere that lies on a defect's line is kept (status ``defect``) when the condition is
+    assessed (``window_s``: the windows' length, None when it is not) and the condition model
+    confidently calls that very condition on the block's first window, as ``estimate`` keeps a
+    trace (:func:`~signatelec.estimation.health.defect_explains`)."""
     n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
     r = trace.resistance_ohm[:n]
     note = None
@@ -232,26 +235,15 @@ def _screen(trace, omega, model: LoadStateModel, first: bool, speed=None, window
         again = find_ripple(trace.resistance_ohm[-n:], trace.sample_rate_hz, omega)
         if again.status not in ("elsewhere", "constant"):
             ripple = again
-    if ripple.status == "elsewhere" and _defect_explains(trace, omega, model, ripple, window_s):
+    if (
+        ripple.status == "elsewhere"
+        and window_s is not None
+        and defect_explains(trace, omega, getattr(model, "condition", None), ripple, window_s, n)
+    ):
         return "defect", note if first else None
     if ripple.status in ("elsewhere", "constant"):
         raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
     return ripple.status, note if first else None
-
-
-def _defect_explains(trace, omega: float, model: LoadStateModel, ripple, window_s: float) -> bool:
-    """Whether the strongest line, away from the ball-pass frequency, is a defect's
-    (:func:`~signatelec.measurement.sanity.defect_line_of`) that the condition model confidently
-    calls on the block's first ``window_s`` (its training traces' length)."""
-    fs = trace.sample_rate_hz
-    seg = trace.resistance_ohm[: int(round(window_s * fs))]
-    condition = getattr(model, "condition", None)
-    line = None if condition is None else defect_line_of(ripple.frequency_hz, omega, seg.size / fs)
-    if line is None:
-        return False
-    keys, _ = assess_window(seg, fs, omega, trace_features(seg, fs, omega), condition)
-    p = keys.get(f"condition_probability_{line[0]}")
-    return keys["condition"] == line[0] and p is not None and p >= CONFIDENT_CONDITION
 
 
 def _speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: float, first):
@@ -370,6 +362,8 @@ class _Windows:
         self._features()
         ok = [row for row in self.pending if "_features" in row]
         _estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
+        for row in self.pending:  # a window interrupted before its assessment has none
+            row.pop("_condition", None)
         if self.pending:
             self.table.parts.append(pd.DataFrame(self.pending))
         self.pending = []
@@ -477,9 +471,9 @@ class _Windows:
             )
             if self.first or start >= self.next_screen_s:
                 given = _speed_given(self.s, omega_block, start, self.t[hi - 1], self.first)
-                ripple, note = _screen(
-                    trace, omega_block, self.model, self.first, given, self.s.window_s
-                )
+                assessed = self.s.condition_every_s is not None
+                window = self.s.window_s if assessed else None  # a defect's line to confirm
+                ripple, note = _screen(trace, omega_block, self.model, self.first, given, window)
                 self.ripple, self.next_screen_s = ripple, start + SCREEN_EVERY_S
                 if note:
                     self.table.notes.append(note)
@@ -490,11 +484,7 @@ class _Windows:
             status, trace = f"refused: {exc}", None
         self.first = False
         every = self.s.condition_every_s
-        due = (
-            getattr(self.model, "condition", None) is not None
-            and every is not None
-            and start >= self.next_condition_s - 0.5 * self.s.hop
-        )
+        assess = getattr(self.model, "condition", None) is not None and every is not None
         todo = []  # (row, segment, omega) of the windows to measure
         for k in range(n_per):
             t_start = start + k * self.s.hop
@@ -521,9 +511,11 @@ class _Windows:
                 if short := _window_passes(self.s.window_s, omega):
                     row["status"] = f"refused: {short}"
                     continue
+            due = assess and t_start >= self.next_condition_s - 0.5 * self.s.hop
             if due and seg.size == win_n:
-                row["_condition"] = (seg.copy(), trace.sample_rate_hz, omega)
-                due, self.next_condition_s = False, t_start + every
+                measured = self.tracked if self.s.track_speed and speed is None else omega
+                row["_condition"] = (seg.copy(), trace.sample_rate_hz, measured)
+                self.next_condition_s = t_start + every
             if self.s.track_speed and speed is None:
                 # the speed comes from the previous window's line: one window at a time
                 self._measure([(row, seg, self.tracked)], trace.sample_rate_hz)

@@ -30,6 +30,10 @@ FILES = ("windows.parquet", "summary.json", "monitor.png")
 COMMAND = "monitor"
 
 
+#: How the warning of a stretch confidently called faulty begins.
+FAULTY_WARNING = "condition "
+
+
 def _clean(value):
     if isinstance(value, dict):
         return {k: _clean(v) for k, v in value.items()}
@@ -111,8 +115,8 @@ def qualify(
         if "radial_load_n" in s and condition not in (None, "healthy"):
             if (s.get("condition_probability") or 0.0) >= CONFIDENT_CONDITION:
                 warnings.append(
-                    f"condition {condition}: the load-state models learnt healthy bearings, the "
-                    "load state is an extrapolation"
+                    f"{FAULTY_WARNING}{condition}: the load-state models learnt healthy bearings, "
+                    "the load state is an extrapolation"
                 )
         notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
         if long_window:
@@ -126,14 +130,19 @@ def qualify(
 
 def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
     """Mark, in place, each alarm ``confident`` when neither stretch it joins carries a warning
-    (:func:`qualify`): a regime alarm into a stretch without a ball-pass line is no finding."""
+    (:func:`qualify`): a regime alarm into a stretch without a ball-pass line is no finding.
+    The warning that a faulty stretch's load state is an extrapolation does not touch the
+    condition alarm that found the fault."""
     for a in alarms:
         near = [
             s
             for s in stretches
             if abs(s["start_s"] - a["time_s"]) < 1e-9 or abs(s["end_s"] - a["time_s"]) < 1e-9
         ]
-        a["confident"] = not any(s.get("warnings") for s in near)
+        warned = [w for s in near for w in s.get("warnings", ())]
+        if a["kind"] == "condition":
+            warned = [w for w in warned if not w.startswith(FAULTY_WARNING)]
+        a["confident"] = not warned
 
 
 def summary_of(
@@ -327,7 +336,7 @@ def format_summary(summary: dict) -> str:
                 + ("" if s.get("regime_confident", True) else ", not confident")
             )
         else:
-            line += "no load estimate (every window out of the load model's domain)"
+            line += "no load estimate (no window of it carries one)"
         if "condition" in s:
             line += f"  condition {s['condition']} ({s['condition_probability']:.2f})"
         lines.append(line)
