@@ -7,15 +7,16 @@ Usage::
 
 ``--runs``: a dataset directory of the diagnosis study's held-out runs of the seed's bearing
 (``signatelec study diagnosis`` writes them under ``<out>/runs_seed/test``: DEM runs at the
-``fast`` preset, healthy or with an outer-race, inner-race or ball spall or an unbalance, 0.2 s of
+paper's fidelity, healthy or with an outer-race, inner-race or ball spall or an unbalance, 0.2 s of
 steady trace at 20 kHz each, speeds 300-700 rad/s; the default model's condition model learnt
 from the other split, ``train``). Each faulty run makes one record: a healthy run drawn at random
 tiled for ``--minutes`` (default 5), then the faulty run tiled as long (each cut to whole ball
-passes, so that the ripple continues across the seams; an inner-race or ball spall's lines
-jump there, every ~0.2 s), with the speed of each as
-a speed column and 0.2 % white noise per sample (the acceptance records' noise); each healthy run
-makes a record with another healthy run in its place. Each record goes through ``signatelec
-monitor`` with the default model and the default settings (one condition assessment a minute).
+passes, so that the ripple continues across the seams, where an inner-race or ball spall's lines
+jump, every ~0.2 s; an unbalanced run to whole shaft turns, its lines continued), with the speed
+of each as a speed column and 0.2 % white noise per sample (the acceptance records' noise); each
+healthy run makes a record with another healthy run in its place. Each record goes through
+``signatelec monitor`` with the default model and the default settings (one condition assessment
+a minute).
 
 Per condition: the records whose condition alarm names the defect within two assessments
 (2 min) of its onset (detected), whose alarm names another condition (misnamed), and the
@@ -64,9 +65,16 @@ def record(first, second, seconds: float, rng) -> tuple[np.ndarray, np.ndarray, 
 
     parts, speeds = [], []
     for run in (first, second):
-        # whole ball passes, so that the tiling continues the ripple (a spall's other lines
-        # jump at the seams, every ~0.2 s)
-        r = whole_passes(run.resistance, run.fs, run.omega_rad_s)
+        if run.condition == "unbalance":
+            # whole shaft turns, so that the tiling continues the unbalance's lines (the
+            # ball-pass ripple jumps at the seams instead)
+            f_shaft = run.omega_rad_s / (2.0 * np.pi)
+            turns = np.floor(run.resistance.size / run.fs * f_shaft)
+            r = run.resistance[: int(round(turns * run.fs / f_shaft))]
+        else:
+            # whole ball passes, so that the tiling continues the ripple (a spall's other
+            # lines jump at the seams, every ~0.2 s)
+            r = whole_passes(run.resistance, run.fs, run.omega_rad_s)
         n = int(round(seconds * run.fs))
         tiled = np.tile(r, n // r.size + 2)[int(rng.integers(r.size)) :][:n]
         parts.append(tiled * (1.0 + NOISE * rng.standard_normal(n)))
@@ -77,6 +85,20 @@ def record(first, second, seconds: float, rng) -> tuple[np.ndarray, np.ndarray, 
 def at(stretches: list[dict], time_s: float) -> dict:
     """The stretch that holds ``time_s`` (an empty dict if none)."""
     return next((s for s in stretches if s["start_s"] <= time_s < s["end_s"]), {})
+
+
+def window_call(run, model, rng) -> tuple[str | None, float]:
+    """(condition, its probability) the condition model gives the run's first window alone
+    (0.2 s, untiled, with the records' noise)."""
+    from signatelec.estimation.features import trace_features
+    from signatelec.estimation.health import PROBABILITY, assess_window
+
+    seg = run.resistance[: int(round(0.2 * run.fs))]
+    seg = seg * (1.0 + NOISE * rng.standard_normal(seg.size))
+    feats = trace_features(seg, run.fs, run.omega_rad_s)
+    keys, _ = assess_window(seg, run.fs, run.omega_rad_s, feats, model.condition)
+    called = keys["condition"]
+    return called, np.nan if called is None else float(keys[f"{PROBABILITY}{called}"])
 
 
 def main() -> None:
@@ -117,6 +139,7 @@ def main() -> None:
         condition_alarms = [a for a in alarms if a["kind"] == "condition"]
         near = [a for a in condition_alarms if abs(a["time_s"] - onset) <= 120.0]
         before, after = (at(stretches, onset * f) for f in (0.5, 1.5))
+        alone, alone_p = window_call(run, model, rng)
         rows.append(
             {
                 "trace_id": run.trace_id,
@@ -131,6 +154,8 @@ def main() -> None:
                 "called_before": before.get("condition"),
                 "called_after": after.get("condition"),
                 "called_after_probability": after.get("condition_probability"),
+                "window_alone": alone,
+                "window_alone_probability": alone_p,
             }
         )
         cpu = time.process_time() - start
@@ -154,6 +179,7 @@ def main() -> None:
                 "false_alarms_p90": None if faulty else int(g.alarms_p90.sum()),
                 "called_before_right": int((g.called_before == "healthy").sum()),
                 "called_after_right": int((g.called_after == condition).sum()),
+                "window_alone_right": int((g.window_alone == condition).sum()),
                 "median_delay_s": float(g.delay_s.median()) if faulty else None,
                 "median_probability": float(g.probability.median()) if faulty else None,
             }
@@ -169,7 +195,20 @@ def main() -> None:
         "onset (`_p90`: with a probability of at least 0.9); `misnamed`: one naming another; "
         "`false_alarms`: condition alarms on healthy-to-healthy records; "
         "`called_before_right`, `called_after_right`: the stretches holding the middle of the "
-        "first and of the second run called healthy and that condition.",
+        "first and of the second run called healthy and that condition. A stretch's "
+        "condition is the call most of its assessments share (each by the condition model's "
+        "own rule) with their mean probabilities, not the product of their probabilities: "
+        "the assessments of one run share the model's error (`stretch_condition`, "
+        "signatelec/estimation/health.py); an alarm's probability is that the two stretches' "
+        "conditions differ, from those means.",
+        "",
+        "A spall's lines jump at the seams of a run tiled at whole ball passes (every "
+        "~0.2 s); an unbalanced run is tiled at whole shaft turns instead (cut at whole ball "
+        "passes, its shaft lines jumped and the screen found its strongest line off every "
+        "characteristic line, 85.8 Hz at 418 rad/s for a shaft at 66.5 Hz: the blocks were "
+        "refused, their condition not assessed). Column `window_alone` of the records: the "
+        "condition model's call on the run's first 0.2 s alone, untiled, with the same noise "
+        "(`_probability`: its probability).",
         "",
         *markdown(pd.DataFrame(summary)),
         "",

@@ -272,6 +272,7 @@ def _table(load_of, condition_of, every_s: float, seconds: float, seed: int = 0)
         if abs(t / every_s - round(t / every_s)) < 1e-6:
             called = condition_of(t)
             row |= {f"condition_probability_{k}": 0.95 if k == called else 0.025 for k in KINDS}
+            row["condition"] = called
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -316,3 +317,23 @@ def test_a_condition_change_among_load_steps_is_alarmed_at_the_nearest_one():
     assert len(changes) == 29  # the load steps, no change of its own for the condition
     assert {s["condition"] for s in stretches if s["start_s"] >= 280.0 - 0.3} == {"inner"}
     assert {s["condition"] for s in stretches if s["end_s"] <= 280.0 + 0.3} == {"healthy"}
+
+
+def test_a_healthy_stretch_whose_assessments_lean_to_a_spall_stays_healthy():
+    """Every assessment of the first ten minutes gives the inner race the larger probability
+    (0.5 against 0.3) but is called healthy by the condition model's own rule (its healthy
+    threshold): the stretch is healthy with the assessments' mean probability, however many
+    there are (their error is shared, not independent evidence); the spall from 600 s is
+    alarmed."""
+    w = _table(lambda t: 5000.0, lambda t: KINDS[2 * (t >= 600.0)], 60.0, 1200)
+    early = w["start_s"] < 600.0
+    w.loc[early, "condition_probability_healthy"] = 0.3
+    w.loc[early, "condition_probability_inner"] = 0.5
+    w.loc[early, "condition_probability_outer"] = 0.2
+    stretches, _, alarms = stretches_and_changes(w, 0.2)
+    assert [s["condition"] for s in stretches] == ["healthy", "inner"]
+    assert stretches[0]["condition_probability"] == pytest.approx(0.3)
+    assert stretches[0]["condition_probability_inner"] == pytest.approx(0.5)
+    (alarm,) = [a for a in alarms if a["kind"] == "condition"]
+    assert alarm["what"] == "condition healthy -> inner"
+    assert alarm["time_s"] == pytest.approx(570.0, abs=30.0)

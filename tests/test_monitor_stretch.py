@@ -109,6 +109,7 @@ def _windows(n: int, seed: int = 0, condition: str | None = None) -> pd.DataFram
         index=range(n),
     )
     if condition is not None:
+        w["condition"] = condition
         w["condition_probability_healthy"] = 0.9 if condition == "healthy" else 0.1
         w["condition_probability_outer"] = 0.1 if condition == "healthy" else 0.9
     return w

@@ -23,8 +23,10 @@ mix; Lei et al. 2018, JASA 113, 1094) on held-out runs that are not the acceptan
 (:data:`BIAS_RATIO`, :data:`BIAS_RATIO_WINDOWS`; ``signatelec study monitor`` measures them;
 one ratio per target over-covers some regimes and under-covers others, docs/monitor). The two
 parts add in quadrature: half-width
-z90 (b^2 w^2 + s^2 / n_eff)^(1/2). A class output combines the
-windows' log-probabilities, each weighted n_eff / n (the same correction for correlation).
+z90 (b^2 w^2 + s^2 / n_eff)^(1/2). The regime combines the windows' log-probabilities, each
+weighted n_eff / n (the same correction for correlation); the condition, assessed on a few
+windows, is the call most of them share, with their mean probabilities
+(:func:`~signatelec.estimation.health.stretch_condition` says why).
 
 **Alarms** (:func:`alarms`): at each change, a load change beyond ``load_threshold`` (with the
 probability that the stretches' F_r differ by more, from their scatter parts), a change of
@@ -46,7 +48,7 @@ from signatelec.estimation.changes import (
     change_time,
     effective_fraction,
 )
-from signatelec.estimation.health import assessed_windows, condition_changes
+from signatelec.estimation.health import assessed_windows, condition_changes, stretch_condition
 from signatelec.estimation.stretch import stretch_estimate
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
@@ -147,9 +149,7 @@ def combine_stretch(
     regime are its estimates from the windows' mean features, its interval sd the model part
     of each target's interval (``estimated_from``: ``mean features``, else ``windows``)."""
     out: dict = {"n_windows": int(len(windows))}
-    classes = {}
-    for name in CLASS_OUTPUTS:
-        classes |= _named(name, combine_classes(windows, name))
+    classes = _named("regime", combine_classes(windows, "regime")) | stretch_condition(windows)
     if windows.empty:  # a stretch of assessed windows only: its condition alone
         return {**out, **classes}
     est = stretch_estimate(windows, stretch_model)
@@ -215,6 +215,24 @@ def non_overlapping(good: pd.DataFrame) -> pd.DataFrame:
     return good.iloc[keep].reset_index(drop=True)
 
 
+def _merged(load: list, cond: list) -> list[tuple[int, float, float, bool]]:
+    """The changes of the load state, (row of the usable windows where the next stretch starts,
+    time, probability), and of the condition (the same and half the time between its two
+    assessments), as one list in time order of (row, time, probability, whether the condition
+    changed): a condition change between two assessments that hold a load change is that
+    change (the nearest one), timed by the level; rows repeat where no usable window lies
+    between two changes."""
+    found = [(k, t, p, False) for k, t, p in load]
+    for k, t, p, half in cond:
+        near = [i for i, c in enumerate(found) if not c[3] and abs(c[1] - t) <= half + 1e-9]
+        i = min(near, key=lambda i: abs(found[i][1] - t), default=None)
+        if i is None:
+            found.append((k, t, p, True))
+        else:
+            found[i] = (*found[i][:3], True)
+    return sorted(found, key=lambda c: c[1])
+
+
 def stretches_and_changes(
     windows: pd.DataFrame,
     hop_s: float,
@@ -239,20 +257,9 @@ def stretches_and_changes(
         if len(good) > 1:
             hop_s = float(np.median(np.diff(good["start_s"].to_numpy(float))))
     load = change_points(good, hop_s, false_alarm_per_hour) if len(good) else []
-    # each change: (row of good where the next stretch starts, time, probability, whether the
-    # condition changed), in time order; rows repeat where no usable window lies between two
-    found = [(k, change_time(windows, good, k), p, False) for k, p in load]
+    load = [(k, change_time(windows, good, k), p) for k, p in load]
     cond = condition_changes(good, assessed, false_alarm_per_hour)
-    for k, t, p, half in cond:
-        # the load change nearest, if one lies between the two assessments: the same change,
-        # timed by the level
-        near = [i for i, c in enumerate(found) if not c[3] and abs(c[1] - t) <= half + 1e-9]
-        i = min(near, key=lambda i: abs(found[i][1] - t), default=None)
-        if i is None:
-            found.append((k, t, p, True))
-        else:
-            found[i] = (*found[i][:3], True)
-    found.sort(key=lambda c: c[1])
+    found = _merged(load, cond)
     rows = np.maximum.accumulate([c[0] for c in found]).tolist() if found else []
     edges = [0, *rows, len(good)]
     times = [c[1] for c in found]
@@ -274,7 +281,7 @@ def stretches_and_changes(
             s = {k: v for k, v in s.items() if not k.startswith("condition")}
             j = np.searchsorted(cuts, 0.5 * (bounds[i] + bounds[i + 1]))
             mine = assessed if segment is None else assessed[segment == j]
-            s |= _named("condition", combine_classes(mine, "condition"))
+            s |= stretch_condition(mine)
         stretches.append(s)
     changes, alarm_list = [], []
     for (_, t, p, cond_changed), before, after in zip(

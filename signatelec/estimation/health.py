@@ -20,6 +20,17 @@ series of its own at the assessments' cadence, and places each change it finds h
 the last assessment before and the first after, so that a defect's onset is timed to within
 half the cadence (+-30 s at the default); the detector needs :data:`~signatelec.estimation.
 changes.MIN_SEGMENT` assessments on either side (3 min at the default).
+
+:func:`stretch_condition` calls a stretch's condition from its assessments: the condition most
+of them were called (each by the condition model's own rule, whose healthy threshold sets its
+false-alarm rate), with their mean probabilities. The assessments of one stretch are not
+independent evidence: the model's error is the run's, and every one of them shares it (healthy
+runs at the paper's fidelity whose every assessment leans to an inner-race spall, P(inner)
+0.35-0.76 against P(healthy) 0.13-0.45, each still called healthy). The product of their
+probabilities, right for independent evidence, called 8 of 15 such healthy stretches faulty
+(docs/monitor/health.md); the mean (the sum rule, robust where the probabilities carry a
+shared error: Kittler, Hatef, Duin & Matas 1998, *On combining classifiers*, IEEE TPAMI 20(3),
+section 5) does not sharpen with their number.
 """
 
 from __future__ import annotations
@@ -87,6 +98,28 @@ def assessed_windows(windows: pd.DataFrame) -> pd.DataFrame:
         return windows.iloc[0:0]
     done = np.all(np.isfinite(windows[pc].to_numpy(float)), axis=1)
     return windows[done].sort_values("start_s").reset_index(drop=True)
+
+
+def stretch_condition(assessed: pd.DataFrame) -> dict:
+    """The condition keys of a stretch from its ``assessed`` windows (module docstring):
+    ``condition`` (the call most of them share; a tie to the larger mean probability),
+    ``condition_probability`` (the called condition's mean probability) and
+    ``condition_probability_<name>`` (the means); none without an assessment."""
+    pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
+    if not pc:
+        return {}
+    p = assessed[pc].to_numpy(float)
+    done = np.all(np.isfinite(p), axis=1)
+    if not done.any():
+        return {}
+    names = [c.removeprefix(PROBABILITY) for c in pc]
+    mean = dict(zip(names, p[done].mean(axis=0).tolist(), strict=True))
+    calls = assessed["condition"].to_numpy(object)[done]
+    votes = {k: int(np.count_nonzero(calls == k)) for k in names}
+    best = max(names, key=lambda k: (votes[k], mean[k]))
+    return {"condition": best, "condition_probability": mean[best]} | {
+        f"{PROBABILITY}{k}": v for k, v in mean.items()
+    }
 
 
 def condition_changes(
