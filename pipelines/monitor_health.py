@@ -135,7 +135,9 @@ def main() -> None:
         ).to_parquet(path)
         settings = MonitorSettings(speed_column="speed_rad_s")
         windows = monitor_trace(path, model, settings).frame()
-        stretches, _, alarms = stretches_and_changes(windows, settings.hop)
+        stretches, _, alarms = stretches_and_changes(
+            windows, settings.hop, stretch_model=model.stretch, faulty_model=model.faulty
+        )
         condition_alarms = [a for a in alarms if a["kind"] == "condition"]
         near = [a for a in condition_alarms if abs(a["time_s"] - onset) <= 120.0]
         before, after = (at(stretches, onset * f) for f in (0.5, 1.5))
@@ -154,6 +156,14 @@ def main() -> None:
                 "called_before": before.get("condition"),
                 "called_after": after.get("condition"),
                 "called_after_probability": after.get("condition_probability"),
+                "load_model_after": after.get("load_model", "healthy" if after else None),
+                "radial_load_error_after": after.get("radial_load_n", np.nan) / run.radial_load_n
+                - 1.0,
+                "radial_load_inside_after": bool(
+                    after.get("radial_load_n_low", np.inf)
+                    <= run.radial_load_n
+                    <= after.get("radial_load_n_high", -np.inf)
+                ),
                 "window_alone": alone,
                 "window_alone_probability": alone_p,
             }
@@ -180,6 +190,11 @@ def main() -> None:
                 "called_before_right": int((g.called_before == "healthy").sum()),
                 "called_after_right": int((g.called_after == condition).sum()),
                 "window_alone_right": int((g.window_alone == condition).sum()),
+                "load_answered_after": int(g.radial_load_error_after.notna().sum()),
+                "by_faulty_model": int((g.load_model_after == "faulty").sum()),
+                "load_within_1pct_after": int((g.radial_load_error_after.abs() <= 0.01).sum()),
+                "load_mape_after_pct": float(100 * g.radial_load_error_after.abs().mean()),
+                "load_inside_interval_after": int(g.radial_load_inside_after.sum()),
                 "median_delay_s": float(g.delay_s.median()) if faulty else None,
                 "median_probability": float(g.probability.median()) if faulty else None,
             }
@@ -209,6 +224,15 @@ def main() -> None:
         "refused, their condition not assessed). Column `window_alone` of the records: the "
         "condition model's call on the run's first 0.2 s alone, untiled, with the same noise "
         "(`_probability`: its probability).",
+        "",
+        "The load state of the stretch over the second run (the monitor's default: the "
+        "stretch model, and a stretch called faulty answered by the model's faulty load "
+        "model where its windows lie in that model's domain, `load_model_after`): "
+        "`load_answered_after` records with an F_r, `by_faulty_model` of them answered by the "
+        "faulty model, `load_within_1pct_after` within 1 % of the run's F_r, "
+        "`load_mape_after_pct` their mean absolute error, `load_inside_interval_after` with "
+        "the run's F_r inside the 90 % interval (the stretch intervals' ratios were "
+        "calibrated on healthy records at 500 rad/s only; these runs span 300-700 rad/s).",
         "",
         *markdown(pd.DataFrame(summary)),
         "",

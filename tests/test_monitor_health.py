@@ -337,3 +337,42 @@ def test_a_healthy_stretch_whose_assessments_lean_to_a_spall_stays_healthy():
     (alarm,) = [a for a in alarms if a["kind"] == "condition"]
     assert alarm["what"] == "condition healthy -> inner"
     assert alarm["time_s"] == pytest.approx(570.0, abs=30.0)
+
+
+class _HertzLoadModel:
+    """A load-state model of one feature: F_r from the level, R ~ F_r^(-4/3) (Hertz), with a
+    +-1 % interval; the stand-in of a model trained on faulty bearings."""
+
+    features = ("level_mean_ohm",)
+    domain = None
+
+    def predict_columns(self, x):
+        f = 5000.0 * (x[:, 0] / 3e-3) ** (-0.75)
+        return {
+            "radial_load_n": f, "radial_load_n_low": 0.99 * f, "radial_load_n_high": 1.01 * f,
+            "epsilon": np.full(len(f), 0.5), "epsilon_low": np.full(len(f), 0.49),
+            "epsilon_high": np.full(len(f), 0.51), "clearance_m": np.zeros(len(f)),
+            "clearance_m_low": np.full(len(f), -1e-6), "clearance_m_high": np.full(len(f), 1e-6),
+        }  # fmt: skip
+
+
+def test_a_stretch_called_faulty_is_answered_by_the_faulty_load_model():
+    """Inner from 60 s, every window of the spall out of the healthy load model's domain but
+    measured (its level kept): with a faulty load model the spalled stretch has its F_r back
+    (Hertz: the level of 6000 N), marked ``load_model`` faulty; without one it has none, and a
+    healthy stretch never takes the faulty model's answer."""
+    w = _table(lambda t: 5000.0 if t < 60.0 else None, lambda t: KINDS[2 * (t >= 60.0)], 2.0, 120)
+    late = w["start_s"] >= 60.0
+    rng = np.random.default_rng(3)
+    w.loc[late, "level_mean_ohm"] = (
+        3e-3 * (6000.0 / 5000.0) ** (-4 / 3) * (1.0 + 0.002 * rng.standard_normal(int(late.sum())))
+    )
+    plain, _, _ = stretches_and_changes(w, 0.2)
+    assert "radial_load_n" not in plain[1]
+    stretches, _, alarms = stretches_and_changes(w, 0.2, faulty_model=_HertzLoadModel())
+    assert [s["condition"] for s in stretches] == ["healthy", "inner"]
+    assert stretches[1]["load_model"] == "faulty"
+    assert stretches[1]["radial_load_n"] == pytest.approx(6000.0, rel=1e-3)
+    assert "load_model" not in stretches[0]
+    assert stretches[0]["radial_load_n"] == pytest.approx(5000.0, rel=1e-3)
+    assert {a["kind"] for a in alarms} == {"condition", "load"}

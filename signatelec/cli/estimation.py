@@ -290,7 +290,12 @@ def monitor(
         gc.unfreeze()
     windows = table.frame()
     stretches, changes, alarms = stretches_and_changes(
-        windows, settings.hop, false_alarm_rate, load_threshold, stretch_model=model.stretch
+        windows,
+        settings.hop,
+        false_alarm_rate,
+        load_threshold,
+        stretch_model=model.stretch,
+        faulty_model=model.faulty,
     )
     extra = {
         "false_alarm_rate_per_hour": false_alarm_rate,

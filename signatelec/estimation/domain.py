@@ -123,6 +123,13 @@ class Domain:
         """In-domain score in [0, 1] (1: at the centre of the training traces)."""
         return self.score_of_distance(self.distance2(features))
 
+    def scores(self, x: np.ndarray) -> np.ndarray:
+        """In-domain scores of many traces: rows of ``x``, columns in the order of
+        :attr:`features` (the same numbers as :meth:`score` of each)."""
+        z = (np.asarray(x, float) - self.centre) / self.scale
+        d2 = np.einsum("ij,jk,ik->i", z, self.precision, z)
+        return np.array([self.score_of_distance(float(v)) for v in d2])
+
     def farthest(self, features: dict[str, float], n: int = 2) -> list[str]:
         """The ``n`` features farthest from the training median, in robust z, for messages."""
         z = (np.array([features[f] for f in self.features]) - self.centre) / self.scale

@@ -48,7 +48,12 @@ from signatelec.estimation.changes import (
     change_time,
     effective_fraction,
 )
-from signatelec.estimation.health import assessed_windows, condition_changes, stretch_condition
+from signatelec.estimation.health import (
+    assessed_windows,
+    condition_changes,
+    faulty_windows,
+    stretch_condition,
+)
 from signatelec.estimation.stretch import stretch_estimate
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
@@ -240,11 +245,15 @@ def stretches_and_changes(
     load_threshold: float = LOAD_THRESHOLD,
     bias_ratio: dict | None = None,
     stretch_model=None,
+    faulty_model=None,
 ) -> tuple[list[dict], list[dict], list[dict]]:
     """(stretches, changes, alarms) of a window table (module docstring): every change point
     is a change (at ``false_alarm_per_hour``), described by its alarms, or by its F_r and
     epsilon when it raises none (a change below ``load_threshold`` within one regime).
-    ``bias_ratio``, ``stretch_model`` (the model's ``stretch``): as :func:`combine_stretch`'s."""
+    ``bias_ratio``, ``stretch_model`` (the model's ``stretch``): as :func:`combine_stretch`'s;
+    a stretch called faulty is answered by ``faulty_model`` (the model's ``faulty``) where its
+    windows lie in that model's domain (:func:`~signatelec.estimation.health.faulty_windows`;
+    ``load_model`` ``faulty``), its windows' estimates combined."""
     check_settings(hop_s, false_alarm_per_hour, load_threshold)
     good, assessed = usable(windows), assessed_windows(windows)
     if good.empty and assessed.empty:
@@ -282,6 +291,13 @@ def stretches_and_changes(
             j = np.searchsorted(cuts, 0.5 * (bounds[i] + bounds[i + 1]))
             mine = assessed if segment is None else assessed[segment == j]
             s |= stretch_condition(mine)
+        if faulty_model is not None and s.get("condition") not in (None, "healthy"):
+            faulty = faulty_windows(windows, bounds[i], bounds[i + 1], faulty_model)
+            if len(faulty):  # answered by the load model that learnt faulty bearings
+                load = combine_stretch(faulty, bias_ratio)
+                s = {k: v for k, v in s.items() if k.startswith(("condition", "start_s", "end_s"))}
+                s |= {k: v for k, v in load.items() if not k.startswith("condition")}
+                s["load_model"] = "faulty"
         stretches.append(s)
     changes, alarm_list = [], []
     for (_, t, p, cond_changed), before, after in zip(

@@ -262,8 +262,11 @@ def _speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s:
 
 def kept_features(model: LoadStateModel) -> tuple[str, ...]:
     """The features a window's row keeps: :data:`KEPT_FEATURES`, then the model's own (a
-    stretch's mean features are what its stretch model reads)."""
-    return tuple(dict.fromkeys([*KEPT_FEATURES, *model.features]))
+    stretch's mean features are what its stretch model reads) and its ``faulty`` model's (which
+    answers a stretch called faulty)."""
+    faulty = getattr(model, "faulty", None)
+    extra = faulty.features if faulty is not None else ()
+    return tuple(dict.fromkeys([*KEPT_FEATURES, *model.features, *extra]))
 
 
 @functools.cache
@@ -284,10 +287,7 @@ def _estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateM
     pred = model.predict_columns(table[:, [column[name] for name in model.features]])
     scores = np.ones(len(table))
     if model.domain is not None:
-        d = model.domain
-        z = (table[:, [column[name] for name in d.features]] - d.centre) / d.scale
-        d2 = np.einsum("ij,jk,ik->i", z, d.precision, z)
-        scores = np.array([d.score_of_distance(float(v)) for v in d2])
+        scores = model.domain.scores(table[:, [column[name] for name in model.domain.features]])
     coverage = model.info.get("coverage", DEFAULT_COVERAGE)
     probs = [c for c in pred if c.startswith("regime_probability_")]
     names, values = list(pred), [v.tolist() for v in pred.values()]

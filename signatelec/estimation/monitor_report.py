@@ -112,11 +112,13 @@ def qualify(
                     "unlike the training traces, the answer is an extrapolation"
                 )
         condition = s.get("condition")
-        if "radial_load_n" in s and condition not in (None, "healthy"):
+        healthy_model = s.get("load_model") != "faulty"
+        if "radial_load_n" in s and condition not in (None, "healthy") and healthy_model:
             if (s.get("condition_probability") or 0.0) >= CONFIDENT_CONDITION:
                 warnings.append(
-                    f"{FAULTY_WARNING}{condition}: the load-state models learnt healthy bearings, "
-                    "the load state is an extrapolation"
+                    f"{FAULTY_WARNING}{condition}: answered by the load-state model of healthy "
+                    "bearings (no faulty model, or no window in its domain), the load state is "
+                    "an extrapolation"
                 )
         notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
         if long_window:

@@ -83,7 +83,11 @@ def run_records(
         path.unlink()
         windows = table.frame()
         stretches, changes, alarms = stretches_and_changes(
-            windows, settings.hop, bias_ratio=bias_ratio, stretch_model=model.stretch
+            windows,
+            settings.hop,
+            bias_ratio=bias_ratio,
+            stretch_model=model.stretch,
+            faulty_model=model.faulty,
         )
         cpu += table.cpu_s
         seconds += noisy.size / SAMPLE_RATE_HZ
