@@ -376,3 +376,37 @@ def test_a_stretch_called_faulty_is_answered_by_the_faulty_load_model():
     assert "load_model" not in stretches[0]
     assert stretches[0]["radial_load_n"] == pytest.approx(5000.0, rel=1e-3)
     assert {a["kind"] for a in alarms} == {"condition", "load"}
+
+
+def test_a_tie_between_healthy_and_a_fault_is_healthy():
+    """Two assessments, one called healthy (leaning to inner, as the model's own rule still
+    calls healthy) and one inner: a fault needs more calls than healthy."""
+    from signatelec.estimation.health import stretch_condition
+
+    w = pd.DataFrame(
+        {
+            "condition": ["healthy", "inner"],
+            "condition_probability_healthy": [0.3, 0.05],
+            "condition_probability_inner": [0.6, 0.9],
+            "condition_probability_outer": [0.1, 0.05],
+        }
+    )
+    out = stretch_condition(w)
+    assert out["condition"] == "healthy"
+    assert out["condition_probability_inner"] == pytest.approx(0.75)
+    assert stretch_condition(w.iloc[1:])["condition"] == "inner"
+
+
+def test_a_load_alarm_between_two_load_models_is_not_confident():
+    """A load alarm where the healthy model answers one side and the faulty model the other
+    compares two models' errors: not confident; the condition alarm at the same change is."""
+    from signatelec.estimation.monitor_report import qualify_alarms
+
+    stretches = [{"start_s": 0.0, "end_s": 60.0}, {"start_s": 60.0, "end_s": 120.0}]
+    stretches[1]["load_model"] = "faulty"
+    alarms = [{"time_s": 60.0, "kind": "load"}, {"time_s": 60.0, "kind": "condition"}]
+    qualify_alarms(alarms, stretches)
+    assert [a["confident"] for a in alarms] == [False, True]
+    del stretches[1]["load_model"]
+    qualify_alarms(alarms, stretches)
+    assert [a["confident"] for a in alarms] == [True, True]

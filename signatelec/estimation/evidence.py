@@ -292,7 +292,9 @@ def stretches_and_changes(
             mine = assessed if segment is None else assessed[segment == j]
             s |= stretch_condition(mine)
         if faulty_model is not None and s.get("condition") not in (None, "healthy"):
+            # windows that do not overlap, as for the healthy model's evidence
             faulty = faulty_windows(windows, bounds[i], bounds[i + 1], faulty_model)
+            faulty = non_overlapping(faulty)
             if len(faulty):  # answered by the load model that learnt faulty bearings
                 load = combine_stretch(faulty, bias_ratio)
                 s = {k: v for k, v in s.items() if k.startswith(("condition", "start_s", "end_s"))}

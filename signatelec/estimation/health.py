@@ -48,7 +48,7 @@ import pandas as pd
 from signatelec.estimation.changes import change_points
 from signatelec.estimation.condition import SEVERITY_TARGET
 from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
-from signatelec.estimation.domain import REFUSE_SCORE
+from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
 from signatelec.estimation.features import trace_features
 from signatelec.measurement.sanity import defect_line_of
 
@@ -56,6 +56,8 @@ from signatelec.measurement.sanity import defect_line_of
 CONDITION_EVERY_S = 60.0
 #: Prefix of a window's condition probabilities.
 PROBABILITY = "condition_probability_"
+#: Prefixes of a window's load-state answers (targets, their intervals, the regime).
+LOAD_OUTPUTS = ("radial_load_n", "epsilon", "clearance_m", "regime")
 #: Floor of a probability before its log (a saturated classifier's 0).
 FLOOR = 1e-6
 
@@ -110,7 +112,8 @@ def assessed_windows(windows: pd.DataFrame) -> pd.DataFrame:
 
 def stretch_condition(assessed: pd.DataFrame) -> dict:
     """The condition keys of a stretch from its ``assessed`` windows (module docstring):
-    ``condition`` (the call most of them share; a tie to the larger mean probability),
+    ``condition`` (the call most of them share; a tie to healthy, else to the larger mean
+    probability),
     ``condition_probability`` (the called condition's mean probability) and
     ``condition_probability_<name>`` (the means); none without an assessment."""
     pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
@@ -124,7 +127,9 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     mean = dict(zip(names, p[done].mean(axis=0).tolist(), strict=True))
     calls = assessed["condition"].to_numpy(object)[done]
     votes = {k: int(np.count_nonzero(calls == k)) for k in names}
-    best = max(names, key=lambda k: (votes[k], mean[k]))
+    # a fault needs more calls than healthy: a tie is healthy (the mean probabilities can lean
+    # to a fault that the model's own rule called healthy in each window)
+    best = max(names, key=lambda k: (votes[k], k == "healthy", mean[k]))
     return {"condition": best, "condition_probability": mean[best]} | {
         f"{PROBABILITY}{k}": v for k, v in mean.items()
     }
@@ -144,11 +149,17 @@ def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -
     if part.empty:
         return part
     pred = model.predict_columns(part[names].to_numpy(float))
-    out = part.drop(columns=[c for c in pred if c in part.columns]).assign(**pred)
+    # the healthy model's answers go, all of them (a class or target the faulty model lacks
+    # would otherwise be mixed in)
+    theirs = [c for c in part.columns if c.startswith(LOAD_OUTPUTS)]
+    out = part.drop(columns=theirs).assign(**pred)
     out["status"] = "ok"
     if model.domain is not None:
         out["in_domain_score"] = model.domain.scores(out[list(model.domain.features)])
-        out = out[out["in_domain_score"] >= REFUSE_SCORE]
+        # as a window is refused: a stricter limit without a ball-pass line
+        no_line = out["ripple"] == "none" if "ripple" in out else False
+        limit = np.where(no_line, NO_LINE_REFUSE_SCORE, REFUSE_SCORE)
+        out = out[out["in_domain_score"] >= limit]
     return out
 
 

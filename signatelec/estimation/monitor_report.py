@@ -134,7 +134,9 @@ def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
     """Mark, in place, each alarm ``confident`` when neither stretch it joins carries a warning
     (:func:`qualify`): a regime alarm into a stretch without a ball-pass line is no finding.
     The warning that a faulty stretch's load state is an extrapolation does not touch the
-    condition alarm that found the fault."""
+    condition alarm that found the fault; a load or regime alarm between a stretch answered by
+    the healthy load model and one answered by the faulty model is not confident (the two
+    models' errors differ)."""
     for a in alarms:
         near = [
             s
@@ -144,6 +146,9 @@ def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
         warned = [w for s in near for w in s.get("warnings", ())]
         if a["kind"] == "condition":
             warned = [w for w in warned if not w.startswith(FAULTY_WARNING)]
+        elif len({s.get("load_model", "healthy") for s in near}) > 1:
+            # two load-state models answered the two sides: their difference is not a change
+            warned.append("answered by different load-state models")
         a["confident"] = not warned
 
 
