@@ -46,6 +46,14 @@ REFUSE_SCORE = 1e-6
 #: A trace without a ball-pass line is refused below this score (see
 #: :mod:`signatelec.estimation.estimate`).
 NO_LINE_REFUSE_SCORE = 1e-3
+
+
+def refuse_score(has_line: bool) -> float:
+    """The in-domain score below which a window is refused: :data:`REFUSE_SCORE`, or
+    :data:`NO_LINE_REFUSE_SCORE` when the sanity layer found no ball-pass line in it."""
+    return REFUSE_SCORE if has_line else NO_LINE_REFUSE_SCORE
+
+
 _MAD_TO_SIGMA = 1.4826
 
 

@@ -296,9 +296,9 @@ def stretches_and_changes(
             faulty = faulty_windows(windows, bounds[i], bounds[i + 1], faulty_model)
             faulty = non_overlapping(faulty)
             if len(faulty):  # answered by the load model that learnt faulty bearings
-                load = combine_stretch(faulty, bias_ratio)
+                answer = combine_stretch(faulty, bias_ratio)
                 s = {k: v for k, v in s.items() if k.startswith(("condition", "start_s", "end_s"))}
-                s |= {k: v for k, v in load.items() if not k.startswith("condition")}
+                s |= {k: v for k, v in answer.items() if not k.startswith("condition")}
                 s["load_model"] = "faulty"
         stretches.append(s)
     changes, alarm_list = [], []

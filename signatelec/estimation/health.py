@@ -48,7 +48,7 @@ import pandas as pd
 from signatelec.estimation.changes import change_points
 from signatelec.estimation.condition import SEVERITY_TARGET
 from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
-from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
+from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.features import trace_features
 from signatelec.measurement.sanity import defect_line_of
 
@@ -113,8 +113,7 @@ def assessed_windows(windows: pd.DataFrame) -> pd.DataFrame:
 def stretch_condition(assessed: pd.DataFrame) -> dict:
     """The condition keys of a stretch from its ``assessed`` windows (module docstring):
     ``condition`` (the call most of them share; a tie to healthy, else to the larger mean
-    probability),
-    ``condition_probability`` (the called condition's mean probability) and
+    probability), ``condition_probability`` (the called condition's mean probability) and
     ``condition_probability_<name>`` (the means); none without an assessment."""
     pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
     if not pc:
@@ -138,8 +137,9 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
 def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -> pd.DataFrame:
     """The windows within ``start_s``-``end_s`` that hold ``model``'s features (every window the
     monitor measured, whatever the healthy load model made of it), answered by ``model`` (a
-    load-state model: the model's ``faulty``), those within its domain (in-domain score at least
-    :data:`~signatelec.estimation.domain.REFUSE_SCORE`), with ``status`` ``ok``."""
+    load-state model: the model's ``faulty``), those within its domain (not refused by
+    :func:`~signatelec.estimation.domain.refuse_score`, as the monitor refuses a window), with
+    ``status`` ``ok``."""
     names = list(model.features)
     inside = (windows["start_s"] >= start_s - 1e-9) & (windows["end_s"] <= end_s + 1e-9)
     part = windows[inside]
@@ -156,9 +156,8 @@ def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -
     out["status"] = "ok"
     if model.domain is not None:
         out["in_domain_score"] = model.domain.scores(out[list(model.domain.features)])
-        # as a window is refused: a stricter limit without a ball-pass line
-        no_line = out["ripple"] == "none" if "ripple" in out else False
-        limit = np.where(no_line, NO_LINE_REFUSE_SCORE, REFUSE_SCORE)
+        ripple = out["ripple"] if "ripple" in out else pd.Series("", index=out.index)
+        limit = [refuse_score(r != "none") for r in ripple]  # as a window is refused
         out = out[out["in_domain_score"] >= limit]
     return out
 

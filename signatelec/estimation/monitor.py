@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from signatelec.estimation.analysis import analyse_windows
-from signatelec.estimation.domain import NO_LINE_REFUSE_SCORE, REFUSE_SCORE
+from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import trace_feature_names, window_features
 from signatelec.estimation.health import CONDITION_EVERY_S, assess_window, defect_explains
@@ -298,7 +298,7 @@ def _estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateM
         if probs:
             top = max(out[c] for c in probs)
             out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and row["ripple"] != "none"
-        limit = NO_LINE_REFUSE_SCORE if row["ripple"] == "none" else REFUSE_SCORE
+        limit = refuse_score(row["ripple"] != "none")
         if scores[i] < limit:
             row["status"] = f"out of domain (in-domain score {scores[i]:.2g} < {limit:g})"
         row.update(out)
