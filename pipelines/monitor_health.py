@@ -90,8 +90,9 @@ def at(stretches: list[dict], time_s: float) -> dict:
 def window_call(run, model, rng) -> tuple[str | None, float]:
     """(condition, its probability) the condition model gives the run's first window alone
     (0.2 s, untiled, with the records' noise)."""
+    from signatelec.estimation.condition import PROBABILITY
     from signatelec.estimation.features import trace_features
-    from signatelec.estimation.health import PROBABILITY, assess_window
+    from signatelec.estimation.health import assess_window
 
     seg = run.resistance[: int(round(0.2 * run.fs))]
     seg = seg * (1.0 + NOISE * rng.standard_normal(seg.size))
@@ -156,7 +157,9 @@ def main() -> None:
                 "called_before": before.get("condition"),
                 "called_after": after.get("condition"),
                 "called_after_probability": after.get("condition_probability"),
-                "load_model_after": after.get("load_model", "healthy" if after else None),
+                "load_model_after": (
+                    after.get("load_model", "healthy") if "radial_load_n" in after else None
+                ),
                 "radial_load_error_after": after.get("radial_load_n", np.nan) / run.radial_load_n
                 - 1.0,
                 "radial_load_inside_after": bool(

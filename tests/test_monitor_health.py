@@ -410,3 +410,104 @@ def test_a_load_alarm_between_two_load_models_is_not_confident():
     del stretches[1]["load_model"]
     qualify_alarms(alarms, stretches)
     assert [a["confident"] for a in alarms] == [True, True]
+
+
+@pytest.mark.parametrize(("every_s", "shares"), [(20.0, [0.05, 0.05]), (60.0, [0.1, 0.0])])
+def test_the_false_alarm_rate_is_the_whole_records(monkeypatch, every_s, shares):
+    """The load state's and the condition's change series share the record's false-alarm rate
+    (Bonferroni over the two: their false changes together stay within it); a condition series
+    too short to hold a change (fewer than 6 assessments: 5 at one a minute over 5 min) leaves
+    the whole rate to the load."""
+    import signatelec.estimation.evidence as evidence
+    import signatelec.estimation.health as health
+
+    asked = {}
+
+    def spy(name, detector):
+        def call(windows, hop_s, false_alarm_per_hour, series=None):
+            asked[name] = false_alarm_per_hour
+            return detector(windows, hop_s, false_alarm_per_hour, series=series)
+
+        return call
+
+    monkeypatch.setattr(evidence, "change_points", spy("load", evidence.change_points))
+    monkeypatch.setattr(health, "change_points", spy("condition", health.change_points))
+    w = _table(lambda t: 5000.0, lambda t: KINDS[0], every_s, 300)
+    stretches_and_changes(w, 0.2, false_alarm_per_hour=0.1)
+    assert [asked["load"], asked.get("condition", 0.0)] == pytest.approx(shares)
+
+
+class _Typical:
+    """The domain of a stand-in faulty model: every window as typical as its training traces."""
+
+    features = ("level_mean_ohm",)
+
+    def scores(self, x):
+        return np.full(len(x), 0.5)
+
+
+def test_a_stretch_answered_by_the_faulty_model_is_qualified_by_its_windows():
+    """The healthy load model's windows are atypical (in-domain score 0.001) and at a speed
+    beyond its training range (700 rad/s against 250-650); the spalled stretch the faulty
+    model answers is judged by that model's windows (typical, 700 rad/s within its 250-750):
+    no warning, where the healthy stretch carries both."""
+    from signatelec.estimation.monitor_report import qualify
+
+    w = _table(lambda t: 5000.0, lambda t: KINDS[2 * (t >= 60.0)], 2.0, 120)
+    w = w.assign(in_domain_score=0.001, omega_rad_s=700.0, ripple="found")
+    faulty = _HertzLoadModel()
+    faulty.domain = _Typical()
+    stretches, _, _ = stretches_and_changes(w, 0.2, faulty_model=faulty)
+    assert [s.get("load_model") for s in stretches] == [None, "faulty"]
+    qualify(stretches, {"omega_rad_s": (250.0, 650.0)}, None, {"omega_rad_s": (250.0, 750.0)})
+    healthy, spalled = stretches
+    assert any("training range 250-650" in x for x in healthy["warnings"])
+    assert any("in-domain score 0.001" in x for x in healthy["warnings"])
+    assert spalled["warnings"] == []
+    assert spalled["in_domain_score"] == 0.5 and spalled["omega_rad_s"] == 700.0
+
+
+def test_the_last_faulty_stretch_runs_to_the_records_end():
+    """Inner from 100 s, assessed every 20 s (the last at 180 s), the record 190 s long and
+    every window of the spall refused by the healthy model: the spalled stretch the faulty
+    model answers runs to 190 s and takes the windows after the last assessment too."""
+    w = _table(
+        lambda t: 5000.0 if t < 100.0 else None, lambda t: KINDS[2 * (t >= 100.0)], 20.0, 190
+    )
+    late = w["start_s"] >= 100.0
+    w.loc[late, "level_mean_ohm"] = 3e-3 * (6000.0 / 5000.0) ** (-4 / 3)
+    stretches, _, _ = stretches_and_changes(w, 0.2, faulty_model=_HertzLoadModel())
+    assert [s["condition"] for s in stretches] == ["healthy", "inner"]
+    assert stretches[-1]["load_model"] == "faulty"
+    assert stretches[-1]["end_s"] == pytest.approx(190.0)
+    assert stretches[-1]["n_windows"] >= int((190.0 - 100.0) / 0.2) - 2
+
+
+def test_a_load_step_within_a_faulty_stretch_is_found():
+    """Inner from 60 s, every window of the spall refused by the healthy model, and a 20 %
+    load step at 150 s within the spall (Hertz: the level falls by 1.2^(4/3)): the faulty
+    model's windows are segmented too, so the spalled time is two stretches of 6000 and 7200 N,
+    both inner, with a load alarm at 150 s (and the change at 60 s); without the step it
+    stays one."""
+    for step in (1.2, 1.0):
+        w = _table(
+            lambda t: 5000.0 if t < 60.0 else None, lambda t: KINDS[2 * (t >= 60.0)], 2.0, 240
+        )
+        rng = np.random.default_rng(4)
+        late = (w["start_s"] >= 60.0).to_numpy()
+        load = np.where(w["start_s"] >= 150.0, 6000.0 * step, 6000.0)[late]
+        noise = 1.0 + 0.002 * rng.standard_normal((late.sum(), 3))
+        w.loc[late, "level_mean_ohm"] = 3e-3 * (load / 5000.0) ** (-4 / 3) * noise[:, 0]
+        w.loc[late, "h1_rel"] = 1e-3 * noise[:, 1]
+        w.loc[late, "h2_rel"] = 3e-4 * noise[:, 2]
+        stretches, changes, alarms = stretches_and_changes(w, 0.2, faulty_model=_HertzLoadModel())
+        spalled = [s for s in stretches if s["condition"] == "inner"]
+        assert all(s["load_model"] == "faulty" for s in spalled)
+        if step == 1.0:
+            assert len(spalled) == 1 and len(changes) == 1
+            continue
+        assert [round(s["radial_load_n"], -2) for s in spalled] == [6000.0, 7200.0]
+        assert [round(c["time_s"]) for c in changes] == [60, 150]
+        at_step = [a for a in alarms if a["time_s"] > 100.0]
+        assert [a["kind"] for a in at_step] == ["load"]
+        assert at_step[0]["time_s"] == pytest.approx(150.0, abs=0.2)

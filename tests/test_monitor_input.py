@@ -190,7 +190,7 @@ def test_stretch_qualified(ripple, snr, omega, warned):
     notes say why."""
     table = _windows(100, 0.2, 0.2, ripple=ripple, omega=omega, snr=snr)
     stretches, _, _ = stretches_and_changes(table, 0.2)
-    notes = qualify(stretches, table, {"omega_rad_s": (250.0, 750.0)})
+    notes = qualify(stretches, {"omega_rad_s": (250.0, 750.0)})
     (stretch,) = stretches
     assert stretch["regime_probability"] > 0.99
     if warned is None:
@@ -258,7 +258,7 @@ def test_alarm_into_a_stretch_without_line_not_confident():
     for ripple, confident in (("found", True), (lost, False)):
         table = _windows(300, 0.2, 0.2, seed=3, shift_at=150, ripple=ripple)
         stretches, _, alarms = stretches_and_changes(table, 0.2)
-        qualify(stretches, table)
+        qualify(stretches)
         qualify_alarms(alarms, stretches)
         assert [a["kind"] for a in alarms] == ["load"]
         assert alarms[0]["confident"] is confident
@@ -283,7 +283,7 @@ def test_window_longer_than_the_training_windows_not_confident():
     table = _windows(40, 3.0, 3.0, seed=3, shift_at=20)
     for window_s, warned in ((3.0, True), (0.2, False)):
         stretches, _, alarms = stretches_and_changes(table, 3.0)
-        notes = qualify(stretches, table, {"omega_rad_s": (250.0, 750.0)}, window_s)
+        notes = qualify(stretches, {"omega_rad_s": (250.0, 750.0)}, window_s)
         qualify_alarms(alarms, stretches)
         assert len(stretches) == 2 and [a["kind"] for a in alarms] == ["load"]
         assert all(s["regime_confident"] is not warned for s in stretches)

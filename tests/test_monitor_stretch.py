@@ -175,6 +175,6 @@ def test_a_faulty_stretch_is_answered_and_warned_of():
     s = combine_stretch(_windows(12, condition="outer"), stretch_model=model)
     assert s["estimated_from"] == "mean features" and s["condition"] == "outer"
     s.update(start_s=0.0, end_s=2.4)
-    notes = qualify([s], pd.DataFrame({"status": [], "start_s": [], "end_s": []}))
+    notes = qualify([s])
     assert len(notes) == 1 and "condition outer" in notes[0] and "extrapolation" in notes[0]
     assert s["regime_confident"] is False

@@ -183,8 +183,8 @@ def train(dataset, out, quiet):
     type=float,
     default=0.1,
     show_default=True,
-    help="Expected false changes per hour of trace, of the load state and of the condition "
-    "each (sets the change detector's threshold).",
+    help="Expected false changes per hour of trace, of the load state and the condition "
+    "together (shared equally between their series; sets the change detector's threshold).",
 )
 @click.option(
     "--load-threshold",
@@ -302,9 +302,7 @@ def monitor(
         "load_threshold": load_threshold,
         "condition_every_s": settings.condition_every_s if model.condition else None,
     }
-    summary = summary_of(
-        table, settings, stretches, changes, alarms, extra, model.info.get("ranges")
-    )
+    summary = summary_of(table, settings, stretches, changes, alarms, extra, model)
     # the model's own features served the stretch model; the table keeps those it kept before
     # (~0.2 s an hour of 50 kHz trace to write them all)
     spare = [c for c in kept_features(model) if c not in (*KEPT_FEATURES, "omega_rad_s")]

@@ -7,7 +7,8 @@ Abrupt Changes*, section 2.4; binary segmentation: Vostrikova 1981) on the serie
 regime follows epsilon and the ripple; its classifier's log-odds only added their scatter where
 a state lies on a regime boundary: a held-out state 1 um from preload split into spurious
 zero/preload stretches with them). The bearing's condition, assessed on fewer windows, is a
-series of its own, segmented alike at its cadence (:mod:`~signatelec.estimation.health`).
+series of its own, segmented alike at its cadence (:mod:`~signatelec.estimation.health`); the
+record's false-alarm rate is shared between the two series (:func:`rate_shares`).
 Each window has a precision of its own, P_i = D_i^(-1/2) R^(-1) D_i^(-1/2): D_i the local
 variance of each series (:func:`_local_variance`: residuals about a running median, which
 follows the majority side of a step, averaged over a few seconds) and R their correlation over
@@ -258,6 +259,17 @@ def _long_run_factor(p: np.ndarray, z: np.ndarray, changes: list[int]) -> float:
     return float(np.median([1.0 / effective_fraction(u[:, j]) for j in range(u.shape[1])]))
 
 
+def rate_shares(false_alarm_per_hour: float, *lengths: int) -> list[float]:
+    """The record's ``false_alarm_per_hour`` shared among its change series (the load state's
+    windows, the condition's assessments; ``lengths``: each one's number of rows): equal
+    shares among those long enough to hold a change (2 :data:`MIN_SEGMENT` rows), none to the
+    others, so that (Bonferroni over the series) the false changes of the whole record stay
+    within the rate, not within the rate for each series."""
+    can = [n >= 2 * MIN_SEGMENT for n in lengths]
+    share = false_alarm_per_hour / max(1, sum(can))
+    return [share if c else 0.0 for c in can]
+
+
 def change_points(
     windows: pd.DataFrame,
     hop_s: float,
@@ -271,7 +283,7 @@ def change_points(
     ok = np.all(np.isfinite(x), axis=1)
     x = x[ok]
     rows = np.flatnonzero(ok)
-    if x.shape[0] < 2 * MIN_SEGMENT:
+    if x.shape[0] < 2 * MIN_SEGMENT or false_alarm_per_hour <= 0.0:
         return []
     alpha = min(0.5, false_alarm_per_hour * hop_s / 3600.0)
     z = x / _robust_scale(x)

@@ -56,6 +56,8 @@ CONDITIONS = CONDITION_NAMES
 SPALLS = ("outer", "inner", "ball")
 CONDITION_TARGET = "condition"
 SEVERITY_TARGET = "spall_length_m"
+#: Prefix of the columns of the conditions' probabilities (``condition_probability_<name>``).
+PROBABILITY = f"{CONDITION_TARGET}_probability_"
 #: The condition labels of a dataset's traces (signatelec.data.design.condition_labels).
 CONDITION_LABELS = (
     CONDITION_TARGET,
@@ -187,7 +189,7 @@ class ConditionEstimator(ClassifierMixin, _Boosting, BaseEstimator):
         best = self._call(proba)
         out: dict[str, np.ndarray] = {CONDITION_TARGET: best}
         for j, cls in enumerate(self.classes_):
-            out[f"{CONDITION_TARGET}_probability_{cls}"] = proba[:, j]
+            out[f"{PROBABILITY}{cls}"] = proba[:, j]
         nan = np.full(X.shape[0], np.nan)
         mid, lo, hi = nan, nan, nan
         if self.severity_ is not None:

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 
 from signatelec.config.bearing import Bearing
-from signatelec.estimation.condition import CONDITIONS, SEVERITY_TARGET, SPALLS
+from signatelec.estimation.condition import CONDITIONS, PROBABILITY, SEVERITY_TARGET, SPALLS
 from signatelec.estimation.condition_features import condition_features
 from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
 from signatelec.estimation.envelope import MIN_CAGE_REVOLUTIONS, analyse_envelope
@@ -54,7 +54,7 @@ def _none(model) -> dict:
     """The result keys of a trace not assessed."""
     out = {"condition": None, "condition_confident": False, "condition_in_domain_score": None}
     for c in getattr(model.estimator, "classes_", CONDITIONS):
-        out[f"condition_probability_{c}"] = None
+        out[f"{PROBABILITY}{c}"] = None
     for k in ("", "_low", "_high"):
         out[f"{SEVERITY_TARGET}{k}"] = None
     return out | dict.fromkeys(LINE_KEYS)
@@ -116,7 +116,7 @@ def assess_condition(
     out = model.predict_one(feats)
     out |= matched_line(out["condition"], analysis)
     notes = []
-    probs = {c: out[f"condition_probability_{c}"] for c in model.estimator.classes_}
+    probs = {c: out[f"{PROBABILITY}{c}"] for c in model.estimator.classes_}
     best = out["condition"]
     out["condition_confident"] = bool(probs[best] >= CONFIDENT_CONDITION)
     out["condition_in_domain_score"] = score
@@ -149,7 +149,7 @@ def condition_line(result: dict) -> str | None:
     c = result["condition"]
     if c is None:
         return "  condition = not assessed (see the notes)"
-    p = result.get(f"condition_probability_{c}")
+    p = result.get(f"{PROBABILITY}{c}")
     sure = "" if result.get("condition_confident") else ", uncertain"
     line = f"  condition = {c}  (probability {p:.2f}{sure})"
     name = result.get("condition_line")

@@ -47,6 +47,7 @@ from signatelec.estimation.changes import (
     change_points,
     change_time,
     effective_fraction,
+    rate_shares,
 )
 from signatelec.estimation.health import (
     assessed_windows,
@@ -159,6 +160,7 @@ def combine_stretch(
         return {**out, **classes}
     est = stretch_estimate(windows, stretch_model)
     out["estimated_from"] = "windows" if est is None else "mean features"
+    out |= _windows_seen(windows)
     ratios = {**RATIOS_BY_SOURCE, **(bias_ratio or {})}[out["estimated_from"]]
     if est is not None and "regime" in classes:
         pc = [c for c in est if c.startswith("regime_probability_")]
@@ -184,6 +186,20 @@ def combine_stretch(
         for part in ("se_noise", "n_eff", "window_sd"):
             out[f"{target}_{part}"] = c[part]
     return {**out, **classes}
+
+
+def _windows_seen(windows: pd.DataFrame) -> dict:
+    """What the windows that answer a stretch were like, as ``estimate`` reports of one trace
+    (read by :func:`~signatelec.estimation.monitor_report.qualify`): their median in-domain
+    score (of the model that answered them) and speed, and the share of them in which the
+    ripple screen found no ball-pass line."""
+    out = {}
+    for name in ("in_domain_score", "omega_rad_s"):
+        if name in windows and windows[name].notna().any():
+            out[name] = float(windows[name].median())
+    if "ripple" in windows:
+        out["no_line_share"] = float((windows["ripple"] == "none").mean())
+    return out
 
 
 def usable(windows: pd.DataFrame) -> pd.DataFrame:
@@ -248,12 +264,15 @@ def stretches_and_changes(
     faulty_model=None,
 ) -> tuple[list[dict], list[dict], list[dict]]:
     """(stretches, changes, alarms) of a window table (module docstring): every change point
-    is a change (at ``false_alarm_per_hour``), described by its alarms, or by its F_r and
+    is a change (at ``false_alarm_per_hour`` for the whole record, shared between the load
+    state's series and the condition's: :func:`~signatelec.estimation.changes.rate_shares`),
+    described by its alarms, or by its F_r and
     epsilon when it raises none (a change below ``load_threshold`` within one regime).
     ``bias_ratio``, ``stretch_model`` (the model's ``stretch``): as :func:`combine_stretch`'s;
     a stretch called faulty is answered by ``faulty_model`` (the model's ``faulty``) where its
     windows lie in that model's domain (:func:`~signatelec.estimation.health.faulty_windows`;
-    ``load_model`` ``faulty``), its windows' estimates combined."""
+    ``load_model`` ``faulty``), its windows' estimates combined, split where they change
+    (:func:`_answered_faulty`)."""
     check_settings(hop_s, false_alarm_per_hour, load_threshold)
     good, assessed = usable(windows), assessed_windows(windows)
     if good.empty and assessed.empty:
@@ -265,9 +284,10 @@ def stretches_and_changes(
         good = non_overlapping(good)
         if len(good) > 1:
             hop_s = float(np.median(np.diff(good["start_s"].to_numpy(float))))
-    load = change_points(good, hop_s, false_alarm_per_hour) if len(good) else []
+    load_rate, condition_rate = rate_shares(false_alarm_per_hour, len(windows), len(assessed))
+    load = change_points(good, hop_s, load_rate) if len(good) else []
     load = [(k, change_time(windows, good, k), p) for k, p in load]
-    cond = condition_changes(good, assessed, false_alarm_per_hour)
+    cond = condition_changes(good, assessed, condition_rate)
     found = _merged(load, cond)
     rows = np.maximum.accumulate([c[0] for c in found]).tolist() if found else []
     edges = [0, *rows, len(good)]
@@ -292,15 +312,16 @@ def stretches_and_changes(
             mine = assessed if segment is None else assessed[segment == j]
             s |= stretch_condition(mine)
         if faulty_model is not None and s.get("condition") not in (None, "healthy"):
-            # windows that do not overlap, as for the healthy model's evidence
-            faulty = faulty_windows(windows, bounds[i], bounds[i + 1], faulty_model)
-            faulty = non_overlapping(faulty)
-            if len(faulty):  # answered by the load model that learnt faulty bearings
-                answer = combine_stretch(faulty, bias_ratio)
-                s = {k: v for k, v in s.items() if k.startswith(("condition", "start_s", "end_s"))}
-                s |= {k: v for k, v in answer.items() if not k.startswith("condition")}
-                s["load_model"] = "faulty"
+            # the last stretch runs to the record's last window (its last assessment may lie
+            # up to a cadence before it; the healthy model refused the windows after)
+            last = i == len(edges) - 2
+            end = float(windows["end_s"].max()) if last else bounds[i + 1]
+            pieces, inner = _answered_faulty(s, windows, end, faulty_model, load_rate, bias_ratio)
+            stretches += pieces
+            found += [(0, t, p, False) for t, p in inner]
+            continue
         stretches.append(s)
+    found.sort(key=lambda c: c[1])
     changes, alarm_list = [], []
     for (_, t, p, cond_changed), before, after in zip(
         found, stretches[:-1], stretches[1:], strict=True
@@ -310,6 +331,35 @@ def stretches_and_changes(
         changes.append({"time_s": t, "what": what, "probability": p})
         alarm_list.extend(raised)
     return stretches, changes, alarm_list
+
+
+def _answered_faulty(
+    stretch: dict, windows: pd.DataFrame, end_s: float, model, rate: float, bias_ratio
+) -> tuple[list[dict], list[tuple[float, float]]]:
+    """A stretch called faulty, answered by the faulty load-state ``model`` from the windows
+    within its bounds (to ``end_s``) that lie in that model's domain and do not overlap: split
+    where their estimates change (the healthy model refused most of them, so the record's
+    change detector never read them; at ``rate`` per hour, the load state's share), each
+    piece with the stretch's condition and ``load_model`` faulty. (pieces, [(time of a change
+    between two, probability)]); the stretch as it was, and no change, without such windows."""
+    faulty = non_overlapping(faulty_windows(windows, stretch["start_s"], end_s, model))
+    if faulty.empty:
+        return [stretch], []
+    hop_s = float(np.median(np.diff(faulty["start_s"].to_numpy(float)))) if len(faulty) > 1 else 0
+    found = change_points(faulty, hop_s, rate) if hop_s > 0 else []
+    times = [change_time(windows, faulty, k) for k, _ in found]
+    edges = [0, *[k for k, _ in found], len(faulty)]
+    bounds = [stretch["start_s"], *times, max(stretch["end_s"], float(faulty["end_s"].max()))]
+    condition = {k: v for k, v in stretch.items() if k.startswith("condition")}
+    pieces = []
+    for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+        part = faulty.iloc[a:b]
+        inside = (part["start_s"] >= bounds[i] - 1e-9) & (part["end_s"] <= bounds[i + 1] + 1e-9)
+        answer = combine_stretch(part[inside] if inside.any() else part, bias_ratio)
+        piece = {"start_s": bounds[i], "end_s": bounds[i + 1], **condition}
+        piece |= {k: v for k, v in answer.items() if not k.startswith("condition")}
+        pieces.append(piece | {"load_model": "faulty"})
+    return pieces, [(t, p) for t, (_, p) in zip(times, found, strict=True)]
 
 
 def _described(before: dict, after: dict) -> str:

@@ -37,7 +37,9 @@ answers a trace its condition model calls faulty (:func:`faulty_windows`): the h
 model never saw a spall's pulses, which take most of a faulty stretch's windows out of its
 domain (on the held-out records of docs/monitor/health.md it answered 17 of 45 spalled stretches,
 F_r 0.2-3.8 % off on average by location), while the faulty model learnt the condition model's
-runs of the seed's bearing, spalled and unbalanced.
+runs of the seed's bearing, spalled and unbalanced. Its windows are segmented again by the
+change detector (:func:`~signatelec.estimation.evidence.stretches_and_changes`): the record's
+detector read only the windows the healthy model answered.
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ import numpy as np
 import pandas as pd
 
 from signatelec.estimation.changes import change_points
-from signatelec.estimation.condition import SEVERITY_TARGET
+from signatelec.estimation.condition import PROBABILITY, SEVERITY_TARGET
 from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
 from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.features import trace_features
@@ -54,8 +56,6 @@ from signatelec.measurement.sanity import defect_line_of
 
 #: Trace between two assessments of the condition, s (module docstring).
 CONDITION_EVERY_S = 60.0
-#: Prefix of a window's condition probabilities.
-PROBABILITY = "condition_probability_"
 #: Prefixes of a window's load-state answers (targets, their intervals, the regime).
 LOAD_OUTPUTS = ("radial_load_n", "epsilon", "clearance_m", "regime")
 #: Floor of a probability before its log (a saturated classifier's 0).
@@ -168,10 +168,10 @@ def condition_changes(
     """[(row of ``good`` where a stretch starts, time, probability, half the time between the
     two assessments)] of the changes of the ``assessed`` windows' condition: the change
     detector on their log-odds against the last class, at their cadence
-    (``false_alarm_per_hour`` as for the load); a change is halfway between the last
-    assessment before and the first after, or where the usable load windows stop or start
-    between the two (a spall's pulses can take them out of the load model's domain); in time
-    order."""
+    (``false_alarm_per_hour``: this series' share of the record's rate); a change is halfway
+    between the last assessment before and the first after, or where the usable load windows
+    stop or start between the two (a spall's pulses can take them out of the load model's
+    domain); in time order."""
     pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
     if len(pc) < 2 or len(assessed) < 2:
         return []

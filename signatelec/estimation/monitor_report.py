@@ -62,57 +62,58 @@ def _long_window(window_s: float | None) -> str | None:
 
 def qualify(
     stretches: list[dict],
-    windows: pd.DataFrame,
     ranges: dict | None = None,
     window_s: float | None = None,
+    faulty_ranges: dict | None = None,
 ) -> list:
     """Mark, in place, each stretch whose windows cannot carry a confident answer: its
-    ``warnings`` (what ``estimate`` warns of for one trace: no ball-pass line, so the speed is
+    ``warnings`` (what ``estimate`` warns of for one trace, read from the windows that answered
+    the stretch, :func:`~signatelec.estimation.evidence.combine_stretch`'s ``no_line_share``,
+    ``omega_rad_s`` and ``in_domain_score``: no ball-pass line in most of them, so the speed is
     unchecked and no regime call is confident (the screen's verdict, not the window's harmonic
     SNR: held-out DEM states whose ripple lies below 0.2 % noise give SNR 2-7, as white noise
     does, and were read right; an SNR rule flagged 32 of 140 acceptance stretches, all right);
-    a speed outside the model's training range,
-    an extrapolation; features as atypical as the 1 % most atypical training traces; windows
-    longer than the training windows, a condition confidently not healthy (the load-state
-    models learnt healthy bearings), ``window_s`` above
-    :data:`~signatelec.estimation.monitor.WINDOW_S`, whose length-dependent features
-    (:data:`~signatelec.estimation.features.LENGTH_DEPENDENT`) the model never saw) and
-    ``regime_confident`` (the regime probability at least
+    a speed outside the training range of the load-state model that answered (``ranges``, or
+    ``faulty_ranges`` for a stretch the faulty model answered), an extrapolation; features as
+    atypical as the 1 % most atypical training traces of that model; windows longer than the
+    training windows, a condition confidently not healthy (the load-state models learnt
+    healthy bearings), ``window_s`` above :data:`~signatelec.estimation.monitor.WINDOW_S`,
+    whose length-dependent features (:data:`~signatelec.estimation.features.LENGTH_DEPENDENT`)
+    the model never saw) and ``regime_confident`` (the regime probability at least
     :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). Returns
     the warnings as notes naming their stretch (the window's length: one note for all)."""
     from signatelec.estimation.diagnose import CONFIDENT_CONDITION
     from signatelec.estimation.domain import WARN_SCORE
     from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 
-    lo, hi = (ranges or {}).get("omega_rad_s", (None, None))
-    ok = windows[windows["status"] == "ok"] if "status" in windows else windows
     long_window = _long_window(window_s)
     notes = [long_window] if long_window and stretches else []
     for s in stretches:
-        inside = ok[(ok["start_s"] >= s["start_s"] - 1e-9) & (ok["end_s"] <= s["end_s"] + 1e-9)]
         warnings = []
-        if len(inside):
-            if (inside["ripple"] == "none").mean() >= 0.5:
-                warnings.append(
-                    "no ball-pass line at the given speed in most of its windows (the ripple "
-                    "screen's): the speed is unchecked or wrong and no regime call is confident "
-                    "(a trace without ripple, a wrong speed, or a state whose ripple lies below "
-                    "the noise)"
-                )
-            omega = float(inside["omega_rad_s"].median())
-            if lo is not None and not lo <= omega <= hi:
-                warnings.append(
-                    f"omega {omega:g} rad/s is outside the training range {lo:.0f}-{hi:.0f} "
-                    "rad/s: extrapolating, the interval does not cover the model's error there"
-                )
-            score = float(inside["in_domain_score"].median())
-            if score < WARN_SCORE:
-                warnings.append(
-                    f"median in-domain score {score:.2g} (below {WARN_SCORE:g}): the windows are "
-                    "unlike the training traces, the answer is an extrapolation"
-                )
-        condition = s.get("condition")
+        if (s.get("no_line_share") or 0.0) >= 0.5:
+            warnings.append(
+                "no ball-pass line at the given speed in most of its windows (the ripple "
+                "screen's): the speed is unchecked or wrong and no regime call is confident "
+                "(a trace without ripple, a wrong speed, or a state whose ripple lies below "
+                "the noise)"
+            )
         healthy_model = s.get("load_model") != "faulty"
+        lo, hi = ((ranges if healthy_model else faulty_ranges) or {}).get(
+            "omega_rad_s", (None, None)
+        )
+        omega = s.get("omega_rad_s")
+        if omega is not None and lo is not None and not lo <= omega <= hi:
+            warnings.append(
+                f"omega {omega:g} rad/s is outside the training range {lo:.0f}-{hi:.0f} "
+                "rad/s: extrapolating, the interval does not cover the model's error there"
+            )
+        score = s.get("in_domain_score")
+        if score is not None and score < WARN_SCORE:
+            warnings.append(
+                f"median in-domain score {score:.2g} (below {WARN_SCORE:g}): the windows are "
+                "unlike the training traces, the answer is an extrapolation"
+            )
+        condition = s.get("condition")
         if "radial_load_n" in s and condition not in (None, "healthy") and healthy_model:
             if (s.get("condition_probability") or 0.0) >= CONFIDENT_CONDITION:
                 warnings.append(
@@ -152,13 +153,17 @@ def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
         a["confident"] = not warned
 
 
-def summary_of(
-    table, settings, stretches, changes, alarms, extra: dict, ranges: dict | None = None
-) -> dict:
-    """The content of ``summary.json``; ``ranges``: the model's training ranges
-    (``info["ranges"]``), against which the stretches are qualified (:func:`qualify`)."""
+def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=None) -> dict:
+    """The content of ``summary.json``; ``model``: the load-state model, whose training ranges
+    (and its faulty model's) the stretches are qualified against (:func:`qualify`)."""
     windows = table.frame()
-    notes = list(table.notes) + qualify(stretches, windows, ranges, settings.window_s)
+    faulty = getattr(model, "faulty", None)
+    notes = list(table.notes) + qualify(
+        stretches,
+        model.info.get("ranges") if model is not None else None,
+        settings.window_s,
+        faulty.info.get("ranges") if faulty is not None else None,
+    )
     qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]

@@ -168,7 +168,7 @@ def run_study(
     info["calibration"] = {"states": len(calibration), "stretches": len(cal_truth)}
     info["cross_validation"] = cross_validation
     windows, table, settings, stretches, chg, alarms = info.pop("example")
-    summary = summary_of(table, settings, stretches, chg, alarms, {})
+    summary = summary_of(table, settings, stretches, chg, alarms, {}, model)
     paths = {"figure": out / "monitor_example.png"}
     draw(windows, summary, paths["figure"])
     throughput = throughput_table(bank, work, minutes=(0.25,) if quick else minutes, log=log)

@@ -45,6 +45,8 @@ def match_record(truth, stretches, changes, windows, window_s):
                 "regime_est": f.regime,
                 "regime_probability": f.regime_probability,
                 "n_windows": int(f.n_windows),
+                "condition_est": f.get("condition"),
+                "load_model": f.get("load_model", "healthy"),
                 "window_regime_right": float((inner.regime == tr.regime).mean())
                 if len(inner)
                 else math.nan,
@@ -106,6 +108,11 @@ def _conformal_quantile(need: np.ndarray, nominal: float) -> float | None:
     return float(need[min(need.size, math.ceil(nominal * (need.size + 1))) - 1])
 
 
+def _count(truth: pd.DataFrame, column: str, which) -> int:
+    """Stretches whose ``column`` satisfies ``which`` (0 without the column)."""
+    return int(which(truth[column]).sum()) if column in truth else 0
+
+
 def calibrate_bias_ratio(truth: pd.DataFrame, nominal: float = NOMINAL) -> dict[str, dict]:
     """Per target and estimated regime (and over all stretches, ``"any"``), the smallest ratio
     b such that the interval z (b^2 w^2 + s^2)^(1/2) (w the windows' interval sd, s the noise
@@ -113,9 +120,13 @@ def calibrate_bias_ratio(truth: pd.DataFrame, nominal: float = NOMINAL) -> dict[
     stretches' required ratios: Mondrian split conformal prediction (Vovk et al. 2005, ch. 4.5;
     Lei et al. 2018), which covers at least ``nominal`` of new stretches exchangeable with
     these within each regime. A regime with fewer than :data:`MIN_CALIBRATION_STRETCHES`
-    stretches takes the ratio over all."""
+    stretches takes the ratio over all. Stretches the faulty load model answered (a healthy
+    state's stretch whose few condition assessments were called faulty) are left out: the
+    ratios are the healthy model's."""
     from signatelec.estimation.evidence import ANY_REGIME, Z90
 
+    if "load_model" in truth:
+        truth = truth[truth["load_model"] != "faulty"].reset_index(drop=True)
     out = {}
     for target in TARGETS:
         err, se, w = stretch_errors(truth, target)
@@ -458,6 +469,9 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         f"| regime probability when right / wrong | - | "
         f"{long_.regime_probability[right].mean():.3f} / "
         f"{long_.regime_probability[~right].mean() if (~right).any() else math.nan:.3f} |",
+        f"| stretches called faulty / answered by the faulty load model | - | "
+        f"{_count(truth, 'condition_est', lambda c: c.notna() & (c != 'healthy'))} / "
+        f"{_count(truth, 'load_model', lambda c: c == 'faulty')} |",
         f"| F_r window error (mean abs) against stretch error | - | "
         f"{_pct(truth.window_load_error.mean())} / {_pct(ld.mean())} |",
         f"| analysis CPU per second of 20 kHz trace | - | {ms_per_s:.1f} ms "
