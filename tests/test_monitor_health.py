@@ -394,7 +394,9 @@ def test_a_tie_between_healthy_and_a_fault_is_healthy():
     out = stretch_condition(w)
     assert out["condition"] == "healthy"
     assert out["condition_probability_inner"] == pytest.approx(0.75)
-    assert stretch_condition(w.iloc[1:])["condition"] == "inner"
+    assert (out["condition_assessments"], out["condition_faulty_share"]) == (2, 0.5)
+    alone = stretch_condition(w.iloc[1:])
+    assert alone["condition"] == "inner" and alone["condition_faulty_share"] == 1.0
 
 
 def test_a_load_alarm_between_two_load_models_is_not_confident():
@@ -501,6 +503,8 @@ def test_a_load_step_within_a_faulty_stretch_is_found():
         w.loc[late, "h1_rel"] = 1e-3 * noise[:, 1]
         w.loc[late, "h2_rel"] = 3e-4 * noise[:, 2]
         stretches, changes, alarms = stretches_and_changes(w, 0.2, faulty_model=_HertzLoadModel())
+        backwards = stretches_and_changes(w.iloc[::-1], 0.2, faulty_model=_HertzLoadModel())
+        assert backwards[0] == stretches  # the windows are put in time order
         spalled = [s for s in stretches if s["condition"] == "inner"]
         assert all(s["load_model"] == "faulty" for s in spalled)
         if step == 1.0:
@@ -511,3 +515,31 @@ def test_a_load_step_within_a_faulty_stretch_is_found():
         at_step = [a for a in alarms if a["time_s"] > 100.0]
         assert [a["kind"] for a in at_step] == ["load"]
         assert at_step[0]["time_s"] == pytest.approx(150.0, abs=0.2)
+
+
+def test_a_faulty_stretch_is_segmented_at_its_share_of_the_rate(monkeypatch):
+    """The faulty model's windows are segmented at the load state's share of the rate times
+    the part of them the healthy model did not answer (the record's detector read the others):
+    half refused, half the share; a table without the detector's columns (no ripple harmonics)
+    is answered unsegmented."""
+    import signatelec.estimation.evidence as evidence
+
+    rates = []
+
+    def spy(windows, hop_s, false_alarm_per_hour, series=None):
+        rates.append(false_alarm_per_hour)
+        return []
+
+    monkeypatch.setattr(evidence, "change_points", spy)
+    w = _table(lambda t: 5000.0, lambda t: KINDS[2 * (t >= 100.0)], 20.0, 200)
+    refused = (w["start_s"] >= 100.0) & (np.arange(len(w)) % 2 == 0)
+    w.loc[refused, "status"] = "out of domain"
+    stretches, _, _ = stretches_and_changes(w, 0.2, 0.1, faulty_model=_HertzLoadModel())
+    assert stretches[-1]["load_model"] == "faulty"
+    assert rates == pytest.approx([0.05, 0.025], rel=0.02)
+    monkeypatch.undo()
+    bare = _table(lambda t: None, lambda t: KINDS[2], 20.0, 200).assign(level_mean_ohm=3e-3)
+    assert "h1_rel" not in bare
+    (stretch,) = stretches_and_changes(bare, 0.2, 0.1, faulty_model=_HertzLoadModel())[0]
+    assert stretch["load_model"] == "faulty"
+    assert stretch["radial_load_n"] == pytest.approx(5000.0)

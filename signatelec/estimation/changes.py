@@ -45,12 +45,16 @@ MIN_SEGMENT = 3
 FALSE_ALARM_PER_HOUR = 0.1
 
 
+#: The window columns the change detector reads (:func:`detector_series`).
+DETECTOR_COLUMNS = ("level_mean_ohm", "radial_load_n", "epsilon", "h1_rel", "h2_rel")
+
+
 def detector_series(windows: pd.DataFrame) -> np.ndarray:
-    """The series the change detector reads, one column each (rows: usable windows)."""
-    cols = [np.log(windows["level_mean_ohm"].to_numpy(float))]
-    cols.append(np.log(windows["radial_load_n"].to_numpy(float)))
-    for name in ("epsilon", "h1_rel", "h2_rel"):
-        cols.append(windows[name].to_numpy(float))
+    """The series the change detector reads, one column each (rows: usable windows): the log
+    of the level and of F_r, epsilon and the first two ripple harmonics
+    (:data:`DETECTOR_COLUMNS`)."""
+    cols = [windows[name].to_numpy(float) for name in DETECTOR_COLUMNS]
+    cols[0], cols[1] = np.log(cols[0]), np.log(cols[1])
     return np.column_stack(cols)
 
 

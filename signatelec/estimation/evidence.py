@@ -43,6 +43,7 @@ import pandas as pd
 from scipy import stats
 
 from signatelec.estimation.changes import (
+    DETECTOR_COLUMNS,
     FALSE_ALARM_PER_HOUR,
     change_points,
     change_time,
@@ -191,8 +192,8 @@ def combine_stretch(
 def _windows_seen(windows: pd.DataFrame) -> dict:
     """What the windows that answer a stretch were like, as ``estimate`` reports of one trace
     (read by :func:`~signatelec.estimation.monitor_report.qualify`): their median in-domain
-    score (of the model that answered them) and speed, and the share of them in which the
-    ripple screen found no ball-pass line."""
+    score (of the window model that answered them, the healthy or the faulty one) and speed,
+    and the share of them in which the ripple screen found no ball-pass line."""
     out = {}
     for name in ("in_domain_score", "omega_rad_s"):
         if name in windows and windows[name].notna().any():
@@ -277,6 +278,7 @@ def stretches_and_changes(
     good, assessed = usable(windows), assessed_windows(windows)
     if good.empty and assessed.empty:
         return [], [], []
+    answered = good["start_s"]  # the windows the healthy model answered
     if len(good) > 1 and float((good["end_s"] - good["start_s"]).median()) > hop_s * (1 + 1e-9):
         # overlapping windows share samples: their residuals about a running median understate
         # the scatter and the detector split a constant record (60 s at a quarter-window hop:
@@ -312,11 +314,13 @@ def stretches_and_changes(
             mine = assessed if segment is None else assessed[segment == j]
             s |= stretch_condition(mine)
         if faulty_model is not None and s.get("condition") not in (None, "healthy"):
-            # the last stretch runs to the record's last window (its last assessment may lie
-            # up to a cadence before it; the healthy model refused the windows after)
+            # the last stretch runs to the last window the faulty model answers (the last
+            # assessment may lie up to a cadence before it, the healthy model refused the rest)
             last = i == len(edges) - 2
             end = float(windows["end_s"].max()) if last else bounds[i + 1]
-            pieces, inner = _answered_faulty(s, windows, end, faulty_model, load_rate, bias_ratio)
+            pieces, inner = _answered_faulty(
+                s, windows, end, faulty_model, (load_rate, answered), bias_ratio
+            )
             stretches += pieces
             found += [(0, t, p, False) for t, p in inner]
             continue
@@ -334,19 +338,26 @@ def stretches_and_changes(
 
 
 def _answered_faulty(
-    stretch: dict, windows: pd.DataFrame, end_s: float, model, rate: float, bias_ratio
+    stretch: dict, windows: pd.DataFrame, end_s: float, model, rate: tuple, bias_ratio
 ) -> tuple[list[dict], list[tuple[float, float]]]:
     """A stretch called faulty, answered by the faulty load-state ``model`` from the windows
     within its bounds (to ``end_s``) that lie in that model's domain and do not overlap: split
     where their estimates change (the healthy model refused most of them, so the record's
-    change detector never read them; at ``rate`` per hour, the load state's share), each
-    piece with the stretch's condition and ``load_model`` faulty. (pieces, [(time of a change
-    between two, probability)]); the stretch as it was, and no change, without such windows."""
+    change detector never read them), each piece with the stretch's condition and
+    ``load_model`` faulty. ``rate``: (the load state's share of the false-alarm rate, the starts
+    of the windows the healthy model answered); the split is tested at that share times the
+    part of the windows the healthy model did not answer (the record's detector read those it
+    did), so that the false changes of the record stay within its rate. (pieces, [(time of a
+    change between two, probability)]); the stretch as it was, and no change, without such
+    windows."""
     faulty = non_overlapping(faulty_windows(windows, stretch["start_s"], end_s, model))
     if faulty.empty:
         return [stretch], []
-    hop_s = float(np.median(np.diff(faulty["start_s"].to_numpy(float)))) if len(faulty) > 1 else 0
-    found = change_points(faulty, hop_s, rate) if hop_s > 0 else []
+    found = []
+    if len(faulty) > 1 and set(DETECTOR_COLUMNS) <= set(faulty.columns):
+        hop_s = float(np.median(np.diff(faulty["start_s"].to_numpy(float))))
+        fresh = 1.0 - float(faulty["start_s"].isin(rate[1]).mean())
+        found = change_points(faulty, hop_s, rate[0] * fresh) if hop_s > 0 else []
     times = [change_time(windows, faulty, k) for k, _ in found]
     edges = [0, *[k for k, _ in found], len(faulty)]
     bounds = [stretch["start_s"], *times, max(stretch["end_s"], float(faulty["end_s"].max()))]

@@ -114,7 +114,9 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     """The condition keys of a stretch from its ``assessed`` windows (module docstring):
     ``condition`` (the call most of them share; a tie to healthy, else to the larger mean
     probability), ``condition_probability`` (the called condition's mean probability) and
-    ``condition_probability_<name>`` (the means); none without an assessment."""
+    ``condition_probability_<name>`` (the means), ``condition_assessments`` (their number) and
+    ``condition_faulty_share`` (the share of them called anything but healthy: above 1/2 the
+    stretch is faulty); none without an assessment."""
     pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
     if not pc:
         return {}
@@ -129,9 +131,13 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     # a fault needs more calls than healthy: a tie is healthy (the mean probabilities can lean
     # to a fault that the model's own rule called healthy in each window)
     best = max(names, key=lambda k: (votes[k], k == "healthy", mean[k]))
-    return {"condition": best, "condition_probability": mean[best]} | {
-        f"{PROBABILITY}{k}": v for k, v in mean.items()
-    }
+    faulty = sum(v for k, v in votes.items() if k != "healthy") / calls.size
+    return {
+        "condition": best,
+        "condition_probability": mean[best],
+        "condition_assessments": int(calls.size),
+        "condition_faulty_share": faulty,
+    } | {f"{PROBABILITY}{k}": v for k, v in mean.items()}
 
 
 def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -> pd.DataFrame:
@@ -139,7 +145,7 @@ def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -
     monitor measured, whatever the healthy load model made of it), answered by ``model`` (a
     load-state model: the model's ``faulty``), those within its domain (not refused by
     :func:`~signatelec.estimation.domain.refuse_score`, as the monitor refuses a window), with
-    ``status`` ``ok``."""
+    ``status`` ``ok``, in time order."""
     names = list(model.features)
     inside = (windows["start_s"] >= start_s - 1e-9) & (windows["end_s"] <= end_s + 1e-9)
     part = windows[inside]
@@ -154,7 +160,10 @@ def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -
     theirs = [c for c in part.columns if c.startswith(LOAD_OUTPUTS)]
     out = part.drop(columns=theirs).assign(**pred)
     out["status"] = "ok"
-    if model.domain is not None:
+    out = out.sort_values("start_s").reset_index(drop=True)
+    if model.domain is None:  # the healthy model's score is not this model's
+        out = out.drop(columns="in_domain_score", errors="ignore")
+    else:
         out["in_domain_score"] = model.domain.scores(out[list(model.domain.features)])
         ripple = out["ripple"] if "ripple" in out else pd.Series("", index=out.index)
         limit = [refuse_score(r != "none") for r in ripple]  # as a window is refused

@@ -12,7 +12,7 @@
   (``time_s``, ``what``, ``probability``) and ``alarms`` (``time_s``, ``kind``: load, regime or
   condition, ``what``, ``probability``);
 - ``monitor.png``: resistance envelope, F_r with its band (windows and stretches), regime
-  probabilities and the probability that the bearing is not healthy, alarms against time.
+  probabilities and the share of the condition's assessments called faulty, alarms against time.
 """
 
 from __future__ import annotations
@@ -209,6 +209,7 @@ def _steps(stretches: list[dict], key: str) -> tuple[list, list]:
     for s in stretches:
         xs += [s["start_s"], s["end_s"], np.nan]
         q = s.get(key)
+        q = np.nan if q is None else q
         ys += [q, q, np.nan]
     return xs, ys
 
@@ -282,10 +283,13 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
             lw=2,
             label=c.removeprefix("regime_probability_"),
         )
-    healthy = "condition_probability_healthy"
-    if any(healthy in s for s in summary["stretches"]):
-        fault = [{**s, "fault": 1.0 - s.get(healthy, np.nan)} for s in summary["stretches"]]
-        ax.plot(*_steps(fault, "fault"), "k--", lw=1.2, label="not healthy")
+    if any("condition_faulty_share" in s for s in summary["stretches"]):
+        ax.plot(
+            *_steps(summary["stretches"], "condition_faulty_share"),
+            "k--",
+            lw=1.2,
+            label="assessments called faulty",
+        )
     ax.set_ylim(-0.02, 1.02)
     ax.set_ylabel("regime probability")
     ax.set_xlabel("time (s)")

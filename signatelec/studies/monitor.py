@@ -94,7 +94,9 @@ def run_records(
         truth_m, chg = match_record(truth, stretches, changes, windows, settings.window_s)
         frames = [(truth_m, rows), (chg, change_rows)]
         if model.stretch is not None:  # the fallback, on the same change points
-            alone = stretches_and_changes(windows, settings.hop, bias_ratio=bias_ratio)
+            alone = stretches_and_changes(
+                windows, settings.hop, bias_ratio=bias_ratio, faulty_model=model.faulty
+            )
             frames.append(
                 (match_record(truth, *alone[:2], windows, settings.window_s)[0], window_rows)
             )

@@ -46,7 +46,9 @@ def match_record(truth, stretches, changes, windows, window_s):
                 "regime_probability": f.regime_probability,
                 "n_windows": int(f.n_windows),
                 "condition_est": f.get("condition"),
-                "load_model": f.get("load_model", "healthy"),
+                "load_model": f.get("load_model")
+                if isinstance(f.get("load_model"), str)
+                else "healthy",
                 "window_regime_right": float((inner.regime == tr.regime).mean())
                 if len(inner)
                 else math.nan,
@@ -108,6 +110,15 @@ def _conformal_quantile(need: np.ndarray, nominal: float) -> float | None:
     return float(need[min(need.size, math.ceil(nominal * (need.size + 1))) - 1])
 
 
+def healthy_answered(truth: pd.DataFrame) -> pd.DataFrame:
+    """The stretches the healthy load model answered (those the faulty model answered, a
+    healthy state's stretch whose few condition assessments were called faulty, are another
+    model's: the ratios are calibrated and cross-validated without them)."""
+    if "load_model" not in truth:
+        return truth
+    return truth[truth["load_model"] != "faulty"].reset_index(drop=True)
+
+
 def _count(truth: pd.DataFrame, column: str, which) -> int:
     """Stretches whose ``column`` satisfies ``which`` (0 without the column)."""
     return int(which(truth[column]).sum()) if column in truth else 0
@@ -120,13 +131,11 @@ def calibrate_bias_ratio(truth: pd.DataFrame, nominal: float = NOMINAL) -> dict[
     stretches' required ratios: Mondrian split conformal prediction (Vovk et al. 2005, ch. 4.5;
     Lei et al. 2018), which covers at least ``nominal`` of new stretches exchangeable with
     these within each regime. A regime with fewer than :data:`MIN_CALIBRATION_STRETCHES`
-    stretches takes the ratio over all. Stretches the faulty load model answered (a healthy
-    state's stretch whose few condition assessments were called faulty) are left out: the
-    ratios are the healthy model's."""
+    stretches takes the ratio over all; stretches the faulty load model answered are left out
+    (:func:`healthy_answered`)."""
     from signatelec.estimation.evidence import ANY_REGIME, Z90
 
-    if "load_model" in truth:
-        truth = truth[truth["load_model"] != "faulty"].reset_index(drop=True)
+    truth = healthy_answered(truth)
     out = {}
     for target in TARGETS:
         err, se, w = stretch_errors(truth, target)
@@ -163,6 +172,7 @@ def cross_validated_coverage(truth: pd.DataFrame, seed: int = 0) -> pd.DataFrame
     records (:data:`CV_REPEATS` random splits by state, a third held out): per target, one
     ratio against one per estimated regime, over all stretches and by true regime."""
     rng = np.random.default_rng(seed)
+    truth = healthy_answered(truth)
     states = truth.state.unique()
     regimes = sorted(truth.regime.unique())
     sums: dict = {}
