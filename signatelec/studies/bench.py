@@ -19,6 +19,30 @@ from signatelec.config.options import OPTIONS
 from signatelec.config.scene import Scene, SceneError
 
 
+def machine() -> dict:
+    """The host the figures were measured on: its processor (the model name Linux reports,
+    else the platform's), whether it has AVX-512 (None where unknown), its CPUs and Python:
+    the same code's figures per core differ by up to 2x between hosts (docs/bench)."""
+    name, avx512 = platform.processor() or platform.machine(), None
+    try:
+        with open("/proc/cpuinfo") as f:
+            info = f.read()
+    except OSError:
+        info = ""
+    for line in info.splitlines():
+        key, _, value = line.partition(":")
+        if key.strip() == "model name" and value.strip():
+            name = value.strip()
+        elif key.strip() == "flags":
+            avx512 = "avx512f" in value.split()
+    return {
+        "processor": name,
+        "avx512": avx512,
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+    }
+
+
 def _cases() -> dict[str, dict]:
     """The seed scene; every option that changes the kernel or the outputs (config.options.OPTIONS)
     at each of its other values, one at a time; then every physics option at its null model."""
@@ -91,11 +115,7 @@ def run_bench(
         row["relative_cost"] = row["cpu_us_per_step"] / seed if seed else None
     return {
         "signatelec": __version__,
-        "machine": {
-            "processor": platform.processor() or platform.machine(),
-            "cpus": os.cpu_count(),
-            "python": platform.python_version(),
-        },
+        "machine": machine(),
         "dt_s": Scene().numerics.dt_s,
         "rows": rows,
     }
