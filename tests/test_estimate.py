@@ -424,6 +424,30 @@ def test_damaged_default_model_rebuilt(small_model, tmp_path, monkeypatch, capsy
     assert capsys.readouterr().err == "" and builds == [1]
 
 
+def test_the_default_model_is_built_once_when_asked_together(small_model, tmp_path, monkeypatch):
+    """Two asking for the default model at once (a test run's workers, jobs started together):
+    the second waits for the first's build and reads it; one build, not two."""
+    import threading
+    import time
+
+    monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
+    builds = []
+
+    def build():
+        builds.append(1)
+        time.sleep(0.5)
+        return load_model(small_model)
+
+    monkeypatch.setattr(persistence, "train_default_model", build)
+    got = []
+    asks = [threading.Thread(target=lambda: got.append(persistence.default_model())) for _ in "ab"]
+    for t in asks:
+        t.start()
+    for t in asks:
+        t.join()
+    assert builds == [1] and len(got) == 2
+
+
 # --- the command line ----------------------------------------------------------------------
 
 

@@ -22,8 +22,8 @@ from test_estimate import EXAMPLE, _example, _run  # the command line as the est
 from threadpoolctl import threadpool_limits
 
 from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE, Domain, domain_features
-from signatelec.estimation.persistence import save_model
-from signatelec.estimation.training import DEFAULT_TABLE, MODEL_FEATURES, train_default_model
+from signatelec.estimation.persistence import default_model, default_model_path
+from signatelec.estimation.training import DEFAULT_TABLE, MODEL_FEATURES
 from signatelec.measurement import ripple as R
 from signatelec.measurement.sanity import screen_trace
 from signatelec.measurement.traces import TraceError, prepare_trace
@@ -34,12 +34,12 @@ EXAMPLE_LOAD_N = 6937.0
 
 
 @pytest.fixture(scope="module")
-def model_file(tmp_path_factory):
-    """The default model (the shipped table's recipe), saved once for this module."""
-    path = tmp_path_factory.mktemp("model") / "default.model"
+def model_file():
+    """The default model (the shipped table's recipe) in the cache the run shares: built once
+    for all the modules and workers that ask for it."""
     with threadpool_limits(1):
-        save_model(train_default_model(), path)
-    return path
+        default_model()
+    return default_model_path()
 
 
 def _estimate(capsys, path, omega, model_file, *extra) -> tuple[int, str, list[str]]:

@@ -22,10 +22,11 @@ damaged cache entry is rebuilt with one warning line.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import pickle
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -229,7 +230,8 @@ def default_model(log: Callable[[str], None] | None = None) -> LoadStateModel:
         f"building the default model from {DEFAULT_TABLE.name} and {PAPER_TABLE.name} (once; "
         f"cached in {path.parent})"
     )
-    if path.is_file():
+    seen = _stamp(path)
+    if seen is not None:
         try:
             return load_model(path)
         except ModelError as exc:
@@ -237,12 +239,48 @@ def default_model(log: Callable[[str], None] | None = None) -> LoadStateModel:
                 f"warning: the cached default model {str(path)!r} is unusable: {exc.reason}; "
                 "rebuilding it"
             )
-    if log is not None:
-        log(message)
-    model = train_default_model()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        save_model(model, path)
-    except OSError:
-        pass  # an unwritable cache only costs the rebuild next time
+    with _build_lock(path):
+        if _stamp(path) not in (None, seen):  # another process built it meanwhile
+            with contextlib.suppress(ModelError):
+                return load_model(path)
+        if log is not None:
+            log(message)
+        model = train_default_model()
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            save_model(model, path)
+        except OSError:
+            pass  # an unwritable cache only costs the rebuild next time
     return model
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """(modification time in ns, size) of ``path``, None if it is not a file."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return (st.st_mtime_ns, st.st_size) if path.is_file() else None
+
+
+@contextlib.contextmanager
+def _build_lock(path: Path) -> Iterator[None]:
+    """An exclusive lock (POSIX ``flock`` on ``path`` + ``.lock``) held while the default model
+    is built: processes that ask for it meanwhile (the workers of a test run, jobs started
+    together) wait and then read what the first built, instead of building it each (~100 s
+    of two cores). No lock where there is no ``fcntl`` or the cache cannot be written; the
+    lock goes with the process that holds it, whatever ends it."""
+    try:
+        import fcntl
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(path.with_name(path.name + ".lock"), "a")  # noqa: SIM115
+    except (ImportError, OSError):
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
