@@ -301,11 +301,7 @@ def stretches_and_changes(
     bounds = [first, *times, max(float(f["end_s"].iloc[-1]) for f in frames)]
     stretches = []
     for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
-        part = good.iloc[a:b]
-        # windows that straddle a change mix two states: left out of both stretches
-        inside = (part["start_s"] >= bounds[i] - 1e-9) & (part["end_s"] <= bounds[i + 1] + 1e-9)
-        if inside.sum() >= 1:
-            part = part[inside]
+        part = _within(good.iloc[a:b], bounds[i], bounds[i + 1])
         s = {"start_s": bounds[i], "end_s": bounds[i + 1]}
         s.update(combine_stretch(part, bias_ratio, stretch_model))
         if len(assessed):  # the assessments of the condition segment holding its middle
@@ -337,6 +333,13 @@ def stretches_and_changes(
     return stretches, changes, alarm_list
 
 
+def _within(part: pd.DataFrame, start_s: float, end_s: float) -> pd.DataFrame:
+    """The windows of a stretch's ``part`` that lie within its bounds: those that straddle a
+    change mix two states and are left out of both stretches (all kept if none lies within)."""
+    inside = (part["start_s"] >= start_s - 1e-9) & (part["end_s"] <= end_s + 1e-9)
+    return part[inside] if inside.any() else part
+
+
 def _answered_faulty(
     stretch: dict, windows: pd.DataFrame, end_s: float, model, rate: tuple, bias_ratio
 ) -> tuple[list[dict], list[tuple[float, float]]]:
@@ -364,9 +367,7 @@ def _answered_faulty(
     condition = {k: v for k, v in stretch.items() if k.startswith("condition")}
     pieces = []
     for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
-        part = faulty.iloc[a:b]
-        inside = (part["start_s"] >= bounds[i] - 1e-9) & (part["end_s"] <= bounds[i + 1] + 1e-9)
-        answer = combine_stretch(part[inside] if inside.any() else part, bias_ratio)
+        answer = combine_stretch(_within(faulty.iloc[a:b], bounds[i], bounds[i + 1]), bias_ratio)
         piece = {"start_s": bounds[i], "end_s": bounds[i + 1], **condition}
         piece |= {k: v for k, v in answer.items() if not k.startswith("condition")}
         pieces.append(piece | {"load_model": "faulty"})
