@@ -8,6 +8,7 @@ labels overlap, model version refusal, and the command line on good and bad trac
 from __future__ import annotations
 
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -185,14 +186,25 @@ def test_model_features_are_trace_features():
 
 
 @pytest.fixture(scope="module")
-def recipe():
+def recipe(tmp_path_factory):
     """The default model's recipe on a third of the shipped runs, and the rows of another third
-    (runs it never saw)."""
+    (runs it never saw). Trained once per test run (~90 s of a core): the workers of a parallel
+    run read the first one's, saved in their shared temporary directory under a lock."""
     table = pd.read_parquet(DEFAULT_TABLE)
     runs = np.unique(table["run_id"])
-    with threadpool_limits(1):
-        model = train_default_model(table[table["run_id"].isin(runs[::3])])
-    return model, table[table["run_id"].isin(runs[1::3])]
+    held_out = table[table["run_id"].isin(runs[1::3])]
+
+    def train():
+        with threadpool_limits(1):
+            return train_default_model(table[table["run_id"].isin(runs[::3])])
+
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return train(), held_out
+    path = tmp_path_factory.getbasetemp().parent / "default-recipe-third.model"
+    with persistence._build_lock(path):
+        if not path.is_file():
+            save_model(train(), path)
+    return load_model(path), held_out
 
 
 @pytest.fixture(scope="module")
@@ -401,8 +413,7 @@ def test_damaged_model_refused(
 
 def test_damaged_default_model_rebuilt(small_model, tmp_path, monkeypatch, capsys):
     """A damaged cache entry of the default model is never used: one warning line, rebuilt,
-    cached again (the build stands in for the recipe, which test_default_model_built_once
-    runs)."""
+    cached again (the build stands in for the recipe, as in test_default_model_built_once)."""
     monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
     cached = persistence.default_model_path()
     cached.parent.mkdir(parents=True, exist_ok=True)
@@ -675,16 +686,26 @@ def test_train_and_estimate(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
 
 
-@pytest.mark.slow
-def test_default_model_built_once(tmp_path, monkeypatch, capsys):
-    """Without --model: built from the shipped table on first use, then read from the cache."""
+def test_default_model_built_once(small_model, tmp_path, monkeypatch, capsys):
+    """Without --model: built on first use, with one line saying so, then read from the cache.
+    The build stands in for the recipe (~100 s of two cores), which the run's shared default
+    model (the trace-sanity and fuzz fixtures) trains on the shipped tables."""
     monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
+    builds = []
+
+    def build():
+        builds.append(1)
+        return load_model(small_model)
+
+    monkeypatch.setattr(persistence, "train_default_model", build)
     assert _run(["estimate", str(EXAMPLE), "--omega", "500"]) == 0
     first = capsys.readouterr()
     assert "building the default model" in first.err
-    assert list((tmp_path / "cache" / "models").glob("*.model"))
+    assert list((tmp_path / "cache" / "models").glob("*.model")) == [
+        persistence.default_model_path()
+    ]
     assert _run(["estimate", str(EXAMPLE), "--omega", "500"]) == 0
     second = capsys.readouterr()
     assert "building" not in second.err
-    assert second.out == first.out
+    assert second.out == first.out and builds == [1]
     shutil.rmtree(tmp_path / "cache")

@@ -527,7 +527,9 @@ FACTORS = (
     "unbalance_phase_rad",
 )
 #: The conditions of a bearing a dataset labels and the condition model tells apart.
-CONDITIONS = ("healthy", "outer", "inner", "ball", "unbalance")
+#: The condition of a bearing without a defect or an abnormal load.
+HEALTHY = "healthy"
+CONDITIONS = (HEALTHY, "outer", "inner", "ball", "unbalance")
 #: Largest target epsilon a spec may ask for (a preload; at small loads epsilon grows fast).
 EPSILON_MAX = 20.0
 MAX_TRACES = 1_000_000

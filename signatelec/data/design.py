@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from signatelec.config.constraints import CONDITIONS
+from signatelec.config.constraints import CONDITIONS, HEALTHY
 from signatelec.config.scene import Scene
 from signatelec.data.spec import DEFAULT_SPALL_DEPTH_M, DEFAULT_SPALL_LENGTH_M, Spec, spall_of
 from signatelec.physics.regimes import regime_of, regime_of_epsilon
@@ -143,7 +143,7 @@ def condition_scene(task: TraceTask, scene: Scene) -> Scene:
     ``unbalance_phase_rad``). SceneError when the scene does not allow it."""
     f = task.factors
     condition = f.get("condition")
-    if condition is None or condition == "healthy":
+    if condition is None or condition == HEALTHY:
         return scene
     if condition == "unbalance":
         force = f.get(

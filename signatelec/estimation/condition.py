@@ -41,6 +41,7 @@ from sklearn.utils.validation import (
 )
 
 from signatelec.config.constraints import CONDITIONS as CONDITION_NAMES
+from signatelec.config.constraints import HEALTHY
 from signatelec.estimation.domain import Domain
 from signatelec.estimation.models import (
     DEFAULT_COVERAGE,
@@ -77,7 +78,6 @@ MIN_CALIBRATION_ROWS = 20
 #: this false-alarm rate (a Neyman-Pearson detector on the calibrated probability), so that
 #: spalls too small to leave a signature do not make healthy bearings look defective.
 FALSE_ALARM = 0.005
-HEALTHY = "healthy"
 
 
 def _condition_targets(y) -> tuple[np.ndarray, np.ndarray | None]:

@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 
 from signatelec.config.bearing import Bearing
+from signatelec.config.constraints import HEALTHY
 from signatelec.config.scene import Scene
 from signatelec.estimation.diagnose import assess_condition
 from signatelec.estimation.domain import (
@@ -128,7 +129,7 @@ def estimate(
         )
     # a trace the condition model calls faulty is answered by the load-state model that
     # learnt defective runs too (docs/diagnosis: F_r with a defect present)
-    faulty = condition.get("condition") not in (None, "healthy")
+    faulty = condition.get("condition") not in (None, HEALTHY)
     load = model.faulty if faulty and model.faulty is not None else model
     domain = load.domain
     score = domain.score(feats)
@@ -192,7 +193,7 @@ def is_seed_bearing(bearing: Bearing) -> bool:
 def _confident_fault(condition: dict) -> bool:
     """A confident condition other than healthy."""
     c = condition.get("condition")
-    return c not in (None, "healthy") and bool(condition.get("condition_confident"))
+    return c not in (None, HEALTHY) and bool(condition.get("condition_confident"))
 
 
 def _result(out, notes, trace, feats, ripple, model, omega_rad_s=None) -> dict:

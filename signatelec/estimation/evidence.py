@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from signatelec.config.constraints import HEALTHY
 from signatelec.estimation.changes import (
     DETECTOR_COLUMNS,
     FALSE_ALARM_PER_HOUR,
@@ -309,7 +310,7 @@ def stretches_and_changes(
             j = np.searchsorted(cuts, 0.5 * (bounds[i] + bounds[i + 1]))
             mine = assessed if segment is None else assessed[segment == j]
             s |= stretch_condition(mine)
-        if faulty_model is not None and s.get("condition") not in (None, "healthy"):
+        if faulty_model is not None and s.get("condition") not in (None, HEALTHY):
             # the last stretch runs to the last window the faulty model answers (the last
             # assessment may lie up to a cadence before it, the healthy model refused the rest)
             last = i == len(edges) - 2

@@ -47,6 +47,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from signatelec.config.constraints import HEALTHY
 from signatelec.estimation.changes import change_points
 from signatelec.estimation.condition import PROBABILITY, SEVERITY_TARGET
 from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
@@ -130,8 +131,8 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     votes = {k: int(np.count_nonzero(calls == k)) for k in names}
     # a fault needs more calls than healthy: a tie is healthy (the mean probabilities can lean
     # to a fault that the model's own rule called healthy in each window)
-    best = max(names, key=lambda k: (votes[k], k == "healthy", mean[k]))
-    faulty = sum(v for k, v in votes.items() if k != "healthy") / calls.size
+    best = max(names, key=lambda k: (votes[k], k == HEALTHY, mean[k]))
+    faulty = sum(v for k, v in votes.items() if k != HEALTHY) / calls.size
     return {
         "condition": best,
         "condition_probability": mean[best],

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from signatelec._version import __version__
+from signatelec.config.constraints import HEALTHY
 
 FILES = ("windows.parquet", "summary.json", "monitor.png")
 COMMAND = "monitor"
@@ -114,7 +115,7 @@ def qualify(
                 "unlike the training traces, the answer is an extrapolation"
             )
         condition = s.get("condition")
-        if "radial_load_n" in s and condition not in (None, "healthy") and healthy_model:
+        if "radial_load_n" in s and condition not in (None, HEALTHY) and healthy_model:
             if (s.get("condition_probability") or 0.0) >= CONFIDENT_CONDITION:
                 warnings.append(
                     f"{FAULTY_WARNING}{condition}: answered by the load-state model of healthy "

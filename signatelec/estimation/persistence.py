@@ -26,6 +26,7 @@ import contextlib
 import hashlib
 import json
 import pickle
+import stat
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -260,7 +261,7 @@ def _stamp(path: Path) -> tuple[int, int] | None:
         st = path.stat()
     except OSError:
         return None
-    return (st.st_mtime_ns, st.st_size) if path.is_file() else None
+    return (st.st_mtime_ns, st.st_size) if stat.S_ISREG(st.st_mode) else None
 
 
 @contextlib.contextmanager

@@ -42,6 +42,7 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from signatelec.config.catalogue import catalogue_bearing
+from signatelec.config.constraints import HEALTHY
 from signatelec.config.scene import Scene
 from signatelec.data import generate as generate_dataset
 from signatelec.data import spec_from_dict
@@ -60,7 +61,7 @@ from signatelec.studies.load_state_metrics import ACCEPT_NOISE
 #: The bearings of the study: the seed's 6208 and a catalogue bearing of another size.
 BEARINGS = ("seed", "6205")
 #: Held-out paper-fidelity runs per condition and bearing.
-TEST_RUNS = {"healthy": 40, "outer": 15, "inner": 15, "ball": 15, "unbalance": 10}
+TEST_RUNS = {HEALTHY: 40, "outer": 15, "inner": 15, "ball": 15, "unbalance": 10}
 #: Acceptance windows per test run: the whole 0.2 s measured with independent noise draws
 #: (the runs, not the windows, are independent draws of the load state and the defect).
 ACCEPT_DRAWS = 3
@@ -132,7 +133,7 @@ def study_spec(
     ds["seed"] = ds["seed"] + 2 * index + (1 if test else 0)
     if healthy_runs is not None:
         blocks = data["design"]
-        data["design"] = [b for b in blocks if b["factors"]["condition"]["value"] == "healthy"]
+        data["design"] = [b for b in blocks if b["factors"]["condition"]["value"] == HEALTHY]
         ds["name"] = f"{ds['name']}_alarms"
         ds["seed"] += ALARM_SEED_OFFSET
     elif spall_runs is not None:
@@ -310,7 +311,7 @@ def load_predictions(table: pd.DataFrame) -> np.ndarray:
     model = default_model()
     out = np.full(len(table), np.nan)
     seed = (table["bearing"] == "seed").to_numpy()
-    fault = (table["pred_condition"].astype(str) != "healthy").to_numpy()
+    fault = (table["pred_condition"].astype(str) != HEALTHY).to_numpy()
     for rows, m in ((seed & ~fault, model), (seed & fault, model.faulty or model)):
         if rows.any():
             out[rows] = m.predict_frame(table[rows])["radial_load_n"].to_numpy()

@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import beta
 
+from signatelec.config.constraints import HEALTHY
 from signatelec.estimation.condition import SPALLS
 
 #: One-sided confidence of the upper bounds.
@@ -56,7 +57,7 @@ def alarm_figures(pred: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for group, g in [("all", pred), *pred.groupby("bearing", observed=True)]:
         # a run is flagged when any of its windows is: its call, the first flagged window's
-        g = g.assign(flag=g["pred_condition"].astype(str) != "healthy")
+        g = g.assign(flag=g["pred_condition"].astype(str) != HEALTHY)
         runs = g.sort_values("flag", ascending=False).groupby("run_id").head(1)
         called = runs["pred_condition"].astype(str)
         flagged = int(runs["flag"].sum())
@@ -69,7 +70,7 @@ def alarm_figures(pred: pd.DataFrame) -> pd.DataFrame:
                 "rate": flagged / n if n else float("nan"),
                 "upper_95": clopper_pearson_upper(flagged, n),
                 "called": ", ".join(
-                    f"{c} {k}" for c, k in called[called != "healthy"].value_counts().items()
+                    f"{c} {k}" for c, k in called[called != HEALTHY].value_counts().items()
                 ),
             }
         )
@@ -112,13 +113,13 @@ def load_error_figures(
             }
         )
     table = pd.DataFrame(out)
-    healthy = table[table["condition"] == "healthy"]
+    healthy = table[table["condition"] == HEALTHY]
     holds = np.full(len(table), np.nan)
     if not healthy.empty:
         h = healthy.iloc[0]
         half = 0.5 * (h["high"] - h["low"])
         for i, r in enumerate(table.itertuples()):
-            if r.condition != "healthy" and (judged is None or r.condition in judged):
+            if r.condition != HEALTHY and (judged is None or r.condition in judged):
                 not_above = r.low <= h["high"]  # overlapping, or below: not worse
                 holds[i] = float(not_above and r.mape <= h["mape"] + half)
     return table.assign(holds=holds)

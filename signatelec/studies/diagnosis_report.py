@@ -18,6 +18,7 @@ import pandas as pd
 from matplotlib.ticker import NullFormatter
 
 from signatelec.config.catalogue import catalogue_bearing
+from signatelec.config.constraints import HEALTHY
 from signatelec.config.scene import Scene
 from signatelec.estimation.condition import CONDITIONS, SPALLS
 from signatelec.io import write_bytes_atomic
@@ -43,7 +44,7 @@ def group_figures(rows: pd.DataFrame) -> dict:
     cond = rows["condition"].astype(str).to_numpy()
     pred = rows["pred_condition"].astype(str).to_numpy()
     ratio = (rows["spall_length_m"] / rows["hertz_width_m"]).to_numpy()
-    healthy = cond == "healthy"
+    healthy = cond == HEALTHY
     spall = np.isin(cond, SPALLS)
     wide = spall & (ratio >= 1.0)
     narrow = spall & (ratio < 1.0)
@@ -52,13 +53,13 @@ def group_figures(rows: pd.DataFrame) -> dict:
     ape = np.abs(rows["pred_load_radial_load_n"].to_numpy() / fr - 1.0)
     return {
         "windows": int(len(rows)),
-        "healthy": int(healthy.sum()),
-        "healthy_flagged": _rate(pred[healthy] != "healthy"),
+        HEALTHY: int(healthy.sum()),
+        "healthy_flagged": _rate(pred[healthy] != HEALTHY),
         "spalls_wide": int(wide.sum()),
-        "wide_detected": _rate(pred[wide] != "healthy"),
+        "wide_detected": _rate(pred[wide] != HEALTHY),
         "wide_type_right": _rate(pred[wide] == cond[wide]),
         "spalls_narrow": int(narrow.sum()),
-        "narrow_detected": _rate(pred[narrow] != "healthy"),
+        "narrow_detected": _rate(pred[narrow] != HEALTHY),
         "narrow_type_right": _rate(pred[narrow] == cond[narrow]),
         "unbalance": int(unbalance.sum()),
         "unbalance_right": _rate(pred[unbalance] == "unbalance"),
@@ -81,7 +82,7 @@ def figures_table(pred: pd.DataFrame) -> pd.DataFrame:
     ratio = spall["spall_length_m"] / spall["hertz_width_m"]
     cut = pd.cut(ratio, RATIO_BINS)
     for (interval, condition), g in spall.groupby([cut, "condition"], observed=True):
-        detected = (g["pred_condition"] != "healthy").to_numpy()
+        detected = (g["pred_condition"] != HEALTHY).to_numpy()
         rows.append(
             {
                 "table": "length",
@@ -154,7 +155,7 @@ def markdown(table: pd.DataFrame, pred: pd.DataFrame, info: dict) -> str:
         r = r._replace(
             **{
                 k: int(getattr(r, k))
-                for k in ("healthy", "spalls_wide", "spalls_narrow", "unbalance")
+                for k in (HEALTHY, "spalls_wide", "spalls_narrow", "unbalance")
             }
         )
         lines.append(

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from signatelec.config.constraints import HEALTHY
+
 #: Sampling rate of the throughput records (the acceptance condition's).
 THROUGHPUT_RATE_HZ = 50000.0
 #: Regression targets whose stretch intervals are calibrated and checked.
@@ -48,7 +50,7 @@ def match_record(truth, stretches, changes, windows, window_s):
                 "condition_est": f.get("condition"),
                 "load_model": f.get("load_model")
                 if isinstance(f.get("load_model"), str)
-                else "healthy",
+                else HEALTHY,
                 "window_regime_right": float((inner.regime == tr.regime).mean())
                 if len(inner)
                 else math.nan,
@@ -489,7 +491,7 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         f"{long_.regime_probability[right].mean():.3f} / "
         f"{long_.regime_probability[~right].mean() if (~right).any() else math.nan:.3f} |",
         f"| stretches called faulty / answered by the faulty load model | - | "
-        f"{_count(truth, 'condition_est', lambda c: c.notna() & (c != 'healthy'))} / "
+        f"{_count(truth, 'condition_est', lambda c: c.notna() & (c != HEALTHY))} / "
         f"{_count(truth, 'load_model', lambda c: c == 'faulty')} |",
         f"| F_r window error (mean abs) against stretch error | - | "
         f"{_pct(truth.window_load_error.mean())} / {_pct(ld.mean())} |",
