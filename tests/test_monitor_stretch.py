@@ -165,6 +165,40 @@ def test_stretch_falls_back_to_the_windows(case):
     assert model is None or model.asked is None
 
 
+class _Scored:
+    """A domain that scores every stretch alike."""
+
+    def __init__(self, score: float):
+        self.value = score
+
+    def score(self, features: dict) -> float:
+        return self.value
+
+
+@pytest.mark.parametrize("score", [1e-4, 0.5])
+def test_a_stretch_reports_how_like_its_training_stretches_it_is(score):
+    """A stretch the stretch model answers carries its mean features' in-domain score among the
+    training stretches (the windows' own median stays ``in_domain_score``); one answered, yet
+    as atypical as the 1 % most atypical training stretches (below the warning score, above the
+    refusal), is warned of as an extrapolation and no regime call on it is confident."""
+    from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
+    from signatelec.estimation.monitor_report import qualify
+
+    assert REFUSE_SCORE < 1e-4 < WARN_SCORE < 0.5
+    model = _Fixed()
+    model.domain = _Scored(score)
+    windows = _windows(12, condition="healthy").assign(in_domain_score=0.8)
+    s = combine_stretch(windows, stretch_model=model)
+    assert s["estimated_from"] == "mean features"
+    assert s["stretch_in_domain_score"] == score and s["in_domain_score"] == 0.8
+    s.update(start_s=0.0, end_s=2.4, regime_probability=0.99)  # a sure regime call
+    notes = qualify([s])
+    warned = score < WARN_SCORE
+    assert len(notes) == warned and s["regime_confident"] is not warned
+    if warned:
+        assert "stretch's mean features" in notes[0] and "extrapolation" in notes[0]
+
+
 def test_a_faulty_stretch_is_answered_and_warned_of():
     """Both the stretch model and the window model learnt healthy bearings: a stretch whose
     condition is confidently a spall keeps the stretch model's answer, and the summary warns

@@ -155,7 +155,9 @@ def combine_stretch(
     source it lacks takes the shipped ratios). With a
     ``stretch_model`` (:mod:`~signatelec.estimation.stretch`) that answers, the targets and the
     regime are its estimates from the windows' mean features, its interval sd the model part
-    of each target's interval (``estimated_from``: ``mean features``, else ``windows``)."""
+    of each target's interval (``estimated_from``: ``mean features``, else ``windows``), and
+    ``stretch_in_domain_score`` how like its training stretches those mean features are
+    (``in_domain_score`` stays the windows' median: :func:`_windows_seen`)."""
     out: dict = {"n_windows": int(len(windows))}
     classes = _named("regime", combine_classes(windows, "regime")) | stretch_condition(windows)
     if windows.empty:  # a stretch of assessed windows only: its condition alone
@@ -163,6 +165,8 @@ def combine_stretch(
     est = stretch_estimate(windows, stretch_model)
     out["estimated_from"] = "windows" if est is None else "mean features"
     out |= _windows_seen(windows)
+    if est is not None and "in_domain_score" in est:
+        out["stretch_in_domain_score"] = est["in_domain_score"]
     ratios = {**RATIOS_BY_SOURCE, **(bias_ratio or {})}[out["estimated_from"]]
     if est is not None and "regime" in classes:
         pc = [c for c in est if c.startswith("regime_probability_")]

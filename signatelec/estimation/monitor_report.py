@@ -70,13 +70,15 @@ def qualify(
     """Mark, in place, each stretch whose windows cannot carry a confident answer: its
     ``warnings`` (what ``estimate`` warns of for one trace, read from the windows that answered
     the stretch, :func:`~signatelec.estimation.evidence.combine_stretch`'s ``no_line_share``,
-    ``omega_rad_s`` and ``in_domain_score``: no ball-pass line in most of them, so the speed is
+    ``omega_rad_s`` and ``in_domain_score``, and the ``stretch_in_domain_score`` of their mean
+    features where the stretch model answered: no ball-pass line in most of them, so the speed is
     unchecked and no regime call is confident (the screen's verdict, not the window's harmonic
     SNR: held-out DEM states whose ripple lies below 0.2 % noise give SNR 2-7, as white noise
     does, and were read right; an SNR rule flagged 32 of 140 acceptance stretches, all right);
     a speed outside the training range of the load-state model that answered (``ranges``, or
-    ``faulty_ranges`` for a stretch the faulty model answered), an extrapolation; features as
-    atypical as the 1 % most atypical training traces of that model; windows longer than the
+    ``faulty_ranges`` for a stretch the faulty model answered), an extrapolation; features (or
+    a stretch's mean features) as atypical as the 1 % most atypical training traces (or
+    stretches) of that model; windows longer than the
     training windows, a condition confidently not healthy (the load-state models learnt
     healthy bearings), ``window_s`` above :data:`~signatelec.estimation.monitor.WINDOW_S`,
     whose length-dependent features (:data:`~signatelec.estimation.features.LENGTH_DEPENDENT`)
@@ -113,6 +115,13 @@ def qualify(
             warnings.append(
                 f"median in-domain score {score:.2g} (below {WARN_SCORE:g}): the windows are "
                 "unlike the training traces, the answer is an extrapolation"
+            )
+        score = s.get("stretch_in_domain_score")
+        if score is not None and score < WARN_SCORE:
+            warnings.append(
+                f"in-domain score {score:.2g} of the stretch's mean features (below "
+                f"{WARN_SCORE:g}): unlike the stretch model's training stretches, the answer is "
+                "an extrapolation"
             )
         condition = s.get("condition")
         if "radial_load_n" in s and condition not in (None, HEALTHY) and healthy_model:

@@ -33,7 +33,8 @@ from signatelec.estimation.domain import REFUSE_SCORE
 
 def stretch_estimate(windows: pd.DataFrame, stretch_model) -> dict | None:
     """The ``stretch_model``'s estimate (:meth:`~signatelec.estimation.models.LoadStateModel.
-    predict_one`) of the windows' mean features, or None: no stretch model or no window, a
+    predict_one`) of the windows' mean features, with their ``in_domain_score`` among the
+    training stretches when the model has a domain, or None: no stretch model or no window, a
     feature not kept or not finite, or mean features unlike every training stretch (in-domain
     score below :data:`~signatelec.estimation.domain.REFUSE_SCORE`, as ``estimate`` refuses a
     trace). It learnt healthy bearings, as the window model did: a stretch whose condition is
@@ -53,6 +54,9 @@ def stretch_estimate(windows: pd.DataFrame, stretch_model) -> dict | None:
         return None
     features = dict(zip(stretch_model.features, mean, strict=True))
     domain = getattr(stretch_model, "domain", None)
-    if domain is not None and domain.score(features) < REFUSE_SCORE:
+    if domain is None:
+        return stretch_model.predict_one(features)
+    score = float(domain.score(features))
+    if score < REFUSE_SCORE:
         return None  # unlike every training stretch: the windows' estimates answer
-    return stretch_model.predict_one(features)
+    return {**stretch_model.predict_one(features), "in_domain_score": score}
