@@ -34,6 +34,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from signatelec.config.constraints import HEALTHY
+
 NOISE = 0.002
 SEED = 20261124
 
@@ -119,7 +121,7 @@ def main() -> None:
     start = time.process_time()
     model = default_model(log=print)
     runs = runs_of(Path(args.runs))
-    healthy = runs[runs.condition == "healthy"]
+    healthy = runs[runs.condition == HEALTHY]
     rng = np.random.default_rng(SEED)
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
@@ -176,7 +178,7 @@ def main() -> None:
     table = pd.DataFrame(rows)
     summary = []
     for condition, g in table.groupby("condition"):
-        faulty = condition != "healthy"
+        faulty = condition != HEALTHY
         summary.append(
             {
                 "condition": condition,
@@ -190,7 +192,7 @@ def main() -> None:
                 else None,
                 "false_alarms": None if faulty else int(g.alarms.sum()),
                 "false_alarms_p90": None if faulty else int(g.alarms_p90.sum()),
-                "called_before_right": int((g.called_before == "healthy").sum()),
+                "called_before_right": int((g.called_before == HEALTHY).sum()),
                 "called_after_right": int((g.called_after == condition).sum()),
                 "window_alone_right": int((g.window_alone == condition).sum()),
                 "load_answered_after": int(g.radial_load_error_after.notna().sum()),

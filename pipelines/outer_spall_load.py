@@ -31,6 +31,7 @@ from pathlib import Path
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from signatelec.config.constraints import HEALTHY
 from signatelec.config.scene import Scene
 from signatelec.data import generate as generate_dataset
 from signatelec.data import spec_from_dict
@@ -136,7 +137,7 @@ def figures(new: pd.DataFrame, study: pd.DataFrame) -> pd.DataFrame:
     against the study's healthy runs, the mean signed error and the runs off by more than 1 %."""
     study = study[study["acceptance"] & (study["bearing"] == "seed")]
     condition = study["condition"].astype(str)
-    healthy = study[condition == "healthy"].assign(group="healthy")
+    healthy = study[condition == HEALTHY].assign(group="healthy")
     outer = study[condition == "outer"]
     wide = outer[outer["spall_length_m"] >= outer["hertz_width_m"]]
     groups = [
@@ -251,7 +252,7 @@ def main(argv: list[str] | None = None) -> pd.DataFrame:
     study = pd.read_parquet(study_path)
     before = faulty_before()
     for rows in (new, study):
-        fault = (rows["pred_condition"].astype(str) != "healthy").to_numpy()
+        fault = (rows["pred_condition"].astype(str) != HEALTHY).to_numpy()
         seed = (rows["bearing"] == "seed").to_numpy()
         rows["pred_before_radial_load_n"] = rows["pred_load_radial_load_n"]
         rows.loc[fault & seed, "pred_before_radial_load_n"] = before.predict_frame(

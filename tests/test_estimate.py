@@ -200,7 +200,8 @@ def recipe(tmp_path_factory):
 
     if not os.environ.get("PYTEST_XDIST_WORKER"):
         return train(), held_out
-    path = tmp_path_factory.getbasetemp().parent / "default-recipe-third.model"
+    run = os.environ.get("PYTEST_XDIST_TESTRUNUID", "run")  # one file per test run
+    path = tmp_path_factory.getbasetemp().parent / f"default-recipe-third-{run}.model"
     with persistence._build_lock(path):
         if not path.is_file():
             save_model(train(), path)
@@ -688,8 +689,9 @@ def test_train_and_estimate(tmp_path, capsys):
 
 def test_default_model_built_once(small_model, tmp_path, monkeypatch, capsys):
     """Without --model: built on first use, with one line saying so, then read from the cache.
-    The build stands in for the recipe (~100 s of two cores), which the run's shared default
-    model (the trace-sanity and fuzz fixtures) trains on the shipped tables."""
+    The build stands in for the recipe (~100 s of two cores): the trace-sanity and fuzz
+    fixtures ask for the default model itself, which a test run with an empty cache (CI's)
+    trains on the shipped tables."""
     monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
     builds = []
 

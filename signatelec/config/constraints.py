@@ -526,9 +526,9 @@ FACTORS = (
     "unbalance_force_n",
     "unbalance_phase_rad",
 )
-#: The conditions of a bearing a dataset labels and the condition model tells apart.
 #: The condition of a bearing without a defect or an abnormal load.
 HEALTHY = "healthy"
+#: The conditions of a bearing a dataset labels and the condition model tells apart.
 CONDITIONS = (HEALTHY, "outer", "inner", "ball", "unbalance")
 #: Largest target epsilon a spec may ask for (a preload; at small loads epsilon grows fast).
 EPSILON_MAX = 20.0

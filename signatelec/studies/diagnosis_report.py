@@ -53,7 +53,7 @@ def group_figures(rows: pd.DataFrame) -> dict:
     ape = np.abs(rows["pred_load_radial_load_n"].to_numpy() / fr - 1.0)
     return {
         "windows": int(len(rows)),
-        HEALTHY: int(healthy.sum()),
+        "healthy": int(healthy.sum()),
         "healthy_flagged": _rate(pred[healthy] != HEALTHY),
         "spalls_wide": int(wide.sum()),
         "wide_detected": _rate(pred[wide] != HEALTHY),
@@ -155,7 +155,7 @@ def markdown(table: pd.DataFrame, pred: pd.DataFrame, info: dict) -> str:
         r = r._replace(
             **{
                 k: int(getattr(r, k))
-                for k in (HEALTHY, "spalls_wide", "spalls_narrow", "unbalance")
+                for k in ("healthy", "spalls_wide", "spalls_narrow", "unbalance")
             }
         )
         lines.append(

@@ -50,7 +50,7 @@ def match_record(truth, stretches, changes, windows, window_s):
                 "condition_est": f.get("condition"),
                 "load_model": f.get("load_model")
                 if isinstance(f.get("load_model"), str)
-                else HEALTHY,
+                else "healthy",
                 "window_regime_right": float((inner.regime == tr.regime).mean())
                 if len(inner)
                 else math.nan,
