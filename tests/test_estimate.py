@@ -412,20 +412,31 @@ def test_damaged_model_refused(
     assert not out.exists()
 
 
-def test_damaged_default_model_rebuilt(small_model, tmp_path, monkeypatch, capsys):
-    """A damaged cache entry of the default model is never used: one warning line, rebuilt,
-    cached again (the build stands in for the recipe, as in test_default_model_built_once)."""
+@pytest.fixture
+def builds(small_model, tmp_path, monkeypatch) -> list:
+    """The default model's cache in ``tmp_path``, its build a stand-in for the recipe (~100 s of
+    two cores) that reads the small model: the list of the builds made. A build lasts 0.5 s, so
+    that a second ask comes while the first builds."""
+    import time
+
     monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
-    cached = persistence.default_model_path()
-    cached.parent.mkdir(parents=True, exist_ok=True)
-    _damaged(small_model, cached, "middle", 64)
-    builds = []
+    made = []
 
     def build():
-        builds.append(1)
+        made.append(1)
+        time.sleep(0.5)
         return load_model(small_model)
 
     monkeypatch.setattr(persistence, "train_default_model", build)
+    return made
+
+
+def test_damaged_default_model_rebuilt(small_model, builds, capsys):
+    """A damaged cache entry of the default model is never used: one warning line, rebuilt,
+    cached again."""
+    cached = persistence.default_model_path()
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    _damaged(small_model, cached, "middle", 64)
     assert _run(["estimate", str(EXAMPLE), "--omega", "500", "--quiet"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("signatelec: warning: "), err
@@ -436,21 +447,11 @@ def test_damaged_default_model_rebuilt(small_model, tmp_path, monkeypatch, capsy
     assert capsys.readouterr().err == "" and builds == [1]
 
 
-def test_the_default_model_is_built_once_when_asked_together(small_model, tmp_path, monkeypatch):
+def test_the_default_model_is_built_once_when_asked_together(builds):
     """Two asking for the default model at once (a test run's workers, jobs started together):
     the second waits for the first's build and reads it; one build, not two."""
     import threading
-    import time
 
-    monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
-    builds = []
-
-    def build():
-        builds.append(1)
-        time.sleep(0.5)
-        return load_model(small_model)
-
-    monkeypatch.setattr(persistence, "train_default_model", build)
     got = []
     asks = [threading.Thread(target=lambda: got.append(persistence.default_model())) for _ in "ab"]
     for t in asks:
@@ -687,19 +688,10 @@ def test_train_and_estimate(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
 
 
-def test_default_model_built_once(small_model, tmp_path, monkeypatch, capsys):
+def test_default_model_built_once(builds, tmp_path, capsys):
     """Without --model: built on first use, with one line saying so, then read from the cache.
-    The build stands in for the recipe (~100 s of two cores): the trace-sanity and fuzz
-    fixtures ask for the default model itself, which a test run with an empty cache (CI's)
-    trains on the shipped tables."""
-    monkeypatch.setenv("SIGNATELEC_CACHE_DIR", str(tmp_path / "cache"))
-    builds = []
-
-    def build():
-        builds.append(1)
-        return load_model(small_model)
-
-    monkeypatch.setattr(persistence, "train_default_model", build)
+    The build stands in for the recipe: the trace-sanity and fuzz fixtures ask for the default
+    model itself, which a test run with an empty cache (CI's) trains on the shipped tables."""
     assert _run(["estimate", str(EXAMPLE), "--omega", "500"]) == 0
     first = capsys.readouterr()
     assert "building the default model" in first.err
