@@ -247,3 +247,46 @@ class ConditionModel:
             raise ValueError(f"condition features not finite: {', '.join(bad)}")
         cols = self.estimator._predict_columns(x)
         return {k: (v[0].item() if hasattr(v[0], "item") else v[0]) for k, v in cols.items()}
+
+    @property
+    def training_mix(self) -> dict[str, float]:
+        """Share of each condition among the training rows: the prior its probabilities carry
+        (a classifier's probabilities are posteriors under the mix it learnt from)."""
+        counts = self.info["classes"]
+        total = float(sum(counts.values()))
+        return {str(k): v / total for k, v in counts.items()}
+
+    def move_to_prior(self, frame: pd.DataFrame, prior: float | dict[str, float]) -> pd.DataFrame:
+        """``frame`` with its condition probabilities (columns ``condition_probability_<name>``:
+        ``predict_frame``'s, a monitor's ``windows.parquet``) moved from :attr:`training_mix`
+        to ``prior`` by Bayes' rule: p_k pi'_k / pi_k, renormalised (Saerens, Latinne and
+        Decaestecker, Neural Computation 14 (2002) 21-41). ``prior``: each condition's share
+        (they sum to 1), or the probability that the bearing is healthy, the faults sharing
+        the rest in the training mix's proportions. The call (``condition``) is left as it is:
+        its false-alarm rate is the training mix's. Rows without probabilities stay empty."""
+        mix = self.training_mix
+        if isinstance(prior, dict):
+            target = {str(k): float(v) for k, v in prior.items()}
+            if set(target) != set(mix):
+                raise ValueError(
+                    f"prior: conditions {sorted(target)}, allowed exactly {sorted(mix)}"
+                )
+        else:
+            h = float(prior)
+            if not 0.0 < h < 1.0:
+                raise ValueError(f"prior: {prior!r}, allowed a probability of healthy in (0, 1)")
+            faults = sum(v for k, v in mix.items() if k != HEALTHY)
+            target = {k: h if k == HEALTHY else (1.0 - h) * v / faults for k, v in mix.items()}
+        bad = {k: v for k, v in target.items() if not 0.0 < v <= 1.0}
+        if bad or abs(sum(target.values()) - 1.0) > 1e-6:
+            raise ValueError(
+                f"prior: {target}, allowed shares in (0, 1] for every condition, summing to 1"
+            )
+        cols = [f"{PROBABILITY}{k}" for k in mix]
+        missing = [c for c in cols if c not in frame.columns]
+        if missing:
+            raise ValueError(f"frame lacks the probability columns {missing}")
+        p = frame[cols].to_numpy(np.float64) * np.array([target[k] / mix[k] for k in mix])
+        out = frame.copy()
+        out[cols] = p / p.sum(axis=1, keepdims=True)
+        return out
