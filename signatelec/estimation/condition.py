@@ -228,6 +228,15 @@ def _healthy_threshold(classifier: RegimeClassifier, labels: np.ndarray) -> floa
     return float(np.quantile(oof[rows, h], FALSE_ALARM))
 
 
+def check_healthy_prior(value, name: str = "--healthy-prior") -> float:
+    """``value`` as a probability that the bearing is healthy, in (0, 1); ValueError (one line
+    naming ``name``, the value and what is allowed) otherwise."""
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and 0.0 < value < 1.0
+    if not ok:
+        raise ValueError(f"{name}: {value!r}, allowed a probability of healthy in (0, 1)")
+    return float(value)
+
+
 @dataclass
 class ConditionModel:
     """A fitted :class:`ConditionEstimator` with the condition features it reads, in order,
@@ -263,7 +272,8 @@ class ConditionModel:
         Decaestecker, Neural Computation 14 (2002) 21-41). ``prior``: each condition's share
         (they sum to 1), or the probability that the bearing is healthy, the faults sharing
         the rest in the training mix's proportions. The call (``condition``) is left as it is:
-        its false-alarm rate is the training mix's. Rows without probabilities stay empty."""
+        its false-alarm rate is the training mix's. Rows without probabilities stay empty, a
+        frame without their columns is returned as it is."""
         mix = self.training_mix
         if isinstance(prior, dict):
             target = {str(k): float(v) for k, v in prior.items()}
@@ -272,9 +282,7 @@ class ConditionModel:
                     f"prior: conditions {sorted(target)}, allowed exactly {sorted(mix)}"
                 )
         else:
-            h = float(prior)
-            if not 0.0 < h < 1.0:
-                raise ValueError(f"prior: {prior!r}, allowed a probability of healthy in (0, 1)")
+            h = check_healthy_prior(prior, "prior")
             faults = sum(v for k, v in mix.items() if k != HEALTHY)
             target = {k: h if k == HEALTHY else (1.0 - h) * v / faults for k, v in mix.items()}
         bad = {k: v for k, v in target.items() if not 0.0 < v <= 1.0}
@@ -284,6 +292,8 @@ class ConditionModel:
             )
         cols = [f"{PROBABILITY}{k}" for k in mix]
         missing = [c for c in cols if c not in frame.columns]
+        if len(missing) == len(cols):  # no condition assessed
+            return frame
         if missing:
             raise ValueError(f"frame lacks the probability columns {missing}")
         p = frame[cols].to_numpy(np.float64) * np.array([target[k] / mix[k] for k in mix])
