@@ -95,8 +95,9 @@ def probabilities(table: pd.DataFrame, kind: str, model):
     return classes, p, w / w.mean()
 
 
-def scores(table: pd.DataFrame, kind: str, model) -> dict:
-    """The reliability figures of one scoring (module docstring)."""
+def scores(table: pd.DataFrame, kind: str, model) -> tuple[dict, pd.DataFrame]:
+    """The reliability figures of one scoring (module docstring), and its
+    :func:`top_label_bins`."""
     classes, p, w = probabilities(table, kind, model)
     truth = table["truth"].to_numpy(str)
     y = (truth[:, None] == np.array(classes)[None, :]).astype(float)
@@ -106,7 +107,7 @@ def scores(table: pd.DataFrame, kind: str, model) -> dict:
     p_true = (p * y).sum(axis=1)
     healthy = truth == "healthy"
     h = classes.index("healthy")
-    return {
+    figures = {
         "scoring": KINDS[kind],
         "windows": int(len(table)),
         "brier": float(np.average(((p - y) ** 2).sum(axis=1), weights=w)),
@@ -118,6 +119,7 @@ def scores(table: pd.DataFrame, kind: str, model) -> dict:
         "p_healthy_of_healthy_median": float(np.median(p[healthy, h])),
         "p_healthy_of_faults_median": float(np.median(p[~healthy, h])),
     }
+    return figures, b.assign(scoring=KINDS[kind])
 
 
 def top_label_bins(top: np.ndarray, right: np.ndarray, w: np.ndarray) -> pd.DataFrame:
@@ -174,14 +176,14 @@ def main(argv: list[str] | None = None) -> None:
     model = default_model().condition
     table = windows(Path(args.work), model)
     parts = [("both", table), *table.groupby("bearing")]
-    summary = pd.DataFrame(
-        [{"bearing": b} | scores(part, k, model) for b, part in parts for k in KINDS]
-    )
-    bins = []
-    for k in KINDS:
-        classes, p, w = probabilities(table, k, model)
-        right = np.array(classes)[p.argmax(axis=1)] == table["truth"].to_numpy(str)
-        bins.append(top_label_bins(p.max(axis=1), right, w).assign(scoring=KINDS[k]))
+    rows, bins = [], []
+    for b, part in parts:
+        for k in KINDS:
+            figures, kind_bins = scores(part, k, model)
+            rows.append({"bearing": b} | figures)
+            if b == "both":
+                bins.append(kind_bins)
+    summary = pd.DataFrame(rows)
     bins = pd.concat(bins, ignore_index=True)
     mix = ", ".join(f"{c} {v:.3f}" for c, v in model.training_mix.items())
     lines = [

@@ -16,8 +16,7 @@ jump, every ~0.2 s; an unbalanced run to whole shaft turns, its lines continued)
 of each as a speed column and 0.2 % white noise per sample (the acceptance records' noise); each
 healthy run makes a record with another healthy run in its place. Each record goes through
 ``signatelec monitor`` with the default model and the default settings (one condition assessment
-a minute), and its alarms are found again with the condition probabilities under a stated prior
-(``--healthy-prior``, default 0.9).
+a minute).
 
 Per condition: the records whose condition alarm names the defect within two assessments
 (2 min) of its onset (detected), whose alarm names another condition (misnamed), and the
@@ -39,9 +38,6 @@ from signatelec.config.constraints import HEALTHY
 
 NOISE = 0.002
 SEED = 20261124
-#: The prior probability of healthy the alarms are also measured under (a monitored bearing is
-#: healthy most of the time; the condition model's training mix has 2 in 9).
-HEALTHY_PRIOR = 0.9
 
 
 def runs_of(directory: Path) -> pd.DataFrame:
@@ -121,7 +117,6 @@ def main() -> None:
     parser.add_argument("--report", default="docs/monitor/health.md")
     parser.add_argument("--minutes", type=float, default=5.0)
     parser.add_argument("--work", default="/tmp/monitor-health")
-    parser.add_argument("--healthy-prior", type=float, default=HEALTHY_PRIOR)
     args = parser.parse_args()
     start = time.process_time()
     model = default_model(log=print)
@@ -148,15 +143,6 @@ def main() -> None:
         )
         condition_alarms = [a for a in alarms if a["kind"] == "condition"]
         near = [a for a in condition_alarms if abs(a["time_s"] - onset) <= 120.0]
-        # the same record under a stated prior (signatelec monitor --healthy-prior)
-        _, _, alarms_prior = stretches_and_changes(
-            model.condition.move_to_prior(windows, args.healthy_prior),
-            settings.hop,
-            stretch_model=model.stretch,
-            faulty_model=model.faulty,
-        )
-        prior_alarms = [a for a in alarms_prior if a["kind"] == "condition"]
-        near_prior = [a for a in prior_alarms if abs(a["time_s"] - onset) <= 120.0]
         before, after = (at(stretches, onset * f) for f in (0.5, 1.5))
         alone, alone_p = window_call(run, model, rng)
         rows.append(
@@ -170,10 +156,6 @@ def main() -> None:
                 "named": near[0]["what"].split(" -> ")[-1] if near else None,
                 "probability": near[0]["probability"] if near else np.nan,
                 "delay_s": near[0]["time_s"] - onset if near else np.nan,
-                "alarms_prior": len(prior_alarms),
-                "alarms_p90_prior": sum(a["probability"] >= 0.9 for a in prior_alarms),
-                "named_prior": near_prior[0]["what"].split(" -> ")[-1] if near_prior else None,
-                "probability_prior": near_prior[0]["probability"] if near_prior else np.nan,
                 "called_before": before.get("condition"),
                 "called_after": after.get("condition"),
                 "called_after_probability": after.get("condition_probability"),
@@ -220,15 +202,6 @@ def main() -> None:
                 "load_inside_interval_after": int(g.radial_load_inside_after.sum()),
                 "median_delay_s": float(g.delay_s.median()) if faulty else None,
                 "median_probability": float(g.probability.median()) if faulty else None,
-                "detected_prior": int((g.named_prior == condition).sum()) if faulty else None,
-                "detected_p90_prior": int(
-                    ((g.named_prior == condition) & (g.probability_prior >= 0.9)).sum()
-                )
-                if faulty
-                else None,
-                "false_alarms_prior": None if faulty else int(g.alarms_prior.sum()),
-                "false_alarms_p90_prior": None if faulty else int(g.alarms_p90_prior.sum()),
-                "median_probability_prior": float(g.probability_prior.median()) if faulty else None,
             }
         )
     lines = [
@@ -247,12 +220,7 @@ def main() -> None:
         "own rule) with their mean probabilities, not the product of their probabilities: "
         "the assessments of one run share the model's error (`stretch_condition`, "
         "signatelec/estimation/health.py); an alarm's probability is that the two stretches' "
-        "conditions differ, from those means. Columns `_prior`: the same, the windows' "
-        "condition probabilities moved from the condition model's training mix (healthy "
-        f"{model.condition.training_mix[HEALTHY]:.2f}) to a bearing healthy with probability "
-        f"{args.healthy_prior:g} before the record is read (`signatelec monitor "
-        "--healthy-prior`: Bayes' rule, the faults sharing the rest in the training mix's "
-        "proportions).",
+        "conditions differ, from those means.",
         "",
         "A spall's lines jump at the seams of a run tiled at whole ball passes (every "
         "~0.2 s); an unbalanced run is tiled at whole shaft turns instead (cut at whole ball "

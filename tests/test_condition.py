@@ -402,6 +402,22 @@ def test_probabilities_moved_to_another_prior():
     by_healthy = model.move_to_prior(frame, 0.7)
     even = {k: (0.7 if k == "healthy" else 0.1) for k in names}
     assert np.allclose(by_healthy[columns], model.move_to_prior(frame, even)[columns])
-    for bad, field in [(1.0, "prior: 1.0"), ({"healthy": 1.0}, "prior: conditions")]:
+    for bad, field in [
+        (1.0, r"prior 1.0: must be a probability of healthy in \(0, 1\)"),
+        (float("nan"), "prior nan: must be"),
+        ({"healthy": 1.0}, r"prior \['healthy'\]: must name exactly"),
+        (even | {"ball": 0.2}, "summing to 1"),
+    ]:
         with pytest.raises(ValueError, match=field):
             model.move_to_prior(frame, bad)
+    # a window not assessed (a monitor's table) stays empty; a table without the columns
+    # (no condition assessed) is returned as it is, one with some of them is refused
+    gaps = frame.copy()
+    gaps.loc[:9, columns] = np.nan
+    kept = model.move_to_prior(gaps, 0.7)
+    assert kept.loc[:9, columns].isna().all().all()
+    assert np.allclose(kept.loc[10:, columns], by_healthy.loc[10:, columns])
+    plain = frame.drop(columns=columns)
+    assert model.move_to_prior(plain, 0.7) is plain
+    with pytest.raises(ValueError, match="lacks the probability columns"):
+        model.move_to_prior(frame.drop(columns=columns[0]), 0.7)

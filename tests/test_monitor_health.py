@@ -211,52 +211,6 @@ def test_the_command_reports_the_condition(model_file, tile, tmp_path, capsys):
     assert (out / "monitor.png").stat().st_size > 0
 
 
-def test_a_stated_prior_moves_the_probabilities_not_the_calls(model_file, tile, tmp_path):
-    """--healthy-prior P: every window's condition odds are those of the training mix (a third
-    each here) times the ratio of the priors (Bayes' rule), the faults sharing 1 - P in the
-    training mix's proportions: healthy against outer x (0.95 / (1/3)) / (0.025 / (1/3)) = 38,
-    inner against outer x 1; the calls, stretches and alarms stay."""
-    import json
-
-    path = _record(tile, [("healthy", 40.0), ("inner", 40.0)], tmp_path / "rec.parquet", seed=9)
-    runs = {}
-    for name, extra in (("mix", []), ("prior", ["--healthy-prior", "0.95"])):
-        out = tmp_path / name
-        args = ["monitor", str(path), "--out", str(out), "--omega", "500", "--model"]
-        code = run_main([*args, str(model_file), "--condition-every", "2", "--quiet", *extra])
-        assert code == 0
-        runs[name] = (
-            pd.read_parquet(out / "windows.parquet"),
-            json.loads((out / "summary.json").read_text()),
-        )
-    (mix, mix_summary), (prior, prior_summary) = runs["mix"], runs["prior"]
-    assessed = mix["condition_probability_healthy"].notna()
-    assert assessed.sum() >= 39
-    p = {k: mix.loc[assessed, f"condition_probability_{k}"] for k in KINDS}
-    q = {k: prior.loc[assessed, f"condition_probability_{k}"] for k in KINDS}
-    np.testing.assert_allclose((q["healthy"] / q["outer"]) / (p["healthy"] / p["outer"]), 38.0)
-    np.testing.assert_allclose((q["inner"] / q["outer"]) / (p["inner"] / p["outer"]), 1.0)
-    pd.testing.assert_series_equal(prior["condition"], mix["condition"])
-    assert prior_summary["settings"]["healthy_prior"] == 0.95
-    assert mix_summary["settings"]["healthy_prior"] == pytest.approx(1 / 3)
-    calls = [[s["condition"] for s in r["stretches"]] for r in (mix_summary, prior_summary)]
-    assert calls[0] == calls[1] == ["healthy", "inner"]
-    assert [a["kind"] for a in prior_summary["alarms"]] == ["condition"]
-
-
-@pytest.mark.parametrize("value", ["0", "1", "nan", "-0.5"])
-def test_bad_healthy_prior_is_refused(model_file, tile, tmp_path, capsys, value):
-    path = _record(tile, [("healthy", 2.0)], tmp_path / "short.parquet")
-    out = tmp_path / "out"
-    code = run_main(
-        ["monitor", str(path), "--out", str(out), "--omega", "500", "--model", str(model_file),
-         "--healthy-prior", value, "--quiet"]
-    )  # fmt: skip
-    err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1 and f"--healthy-prior: {float(value)!r}" in err[0]
-    assert not out.exists()
-
-
 def test_a_record_of_a_spalled_bearing_answers_its_condition(model_file, tile, tmp_path, capsys):
     """From the first block on, the inner race's line is the strongest (not the ball-pass
     ripple): a wrong speed, unless the condition model confidently calls that very defect, as

@@ -201,13 +201,6 @@ def train(dataset, out, quiet):
     help="Trace between two assessments of the bearing's condition, s (default: one a minute; "
     "0: none).",
 )
-@click.option(
-    "--healthy-prior",
-    type=float,
-    default=None,
-    help="Probability that the bearing is healthy before the trace is read: the condition "
-    "probabilities and alarms are given under it (default: the condition model's training mix).",
-)
 @click.option("--model", "model_path", type=str, default=None, help="Model file (as for estimate).")
 @trace_columns
 @click.option(
@@ -223,8 +216,8 @@ def train(dataset, out, quiet):
 @click.option("--quiet", is_flag=True, help="No progress or summary.")
 def monitor(
     trace_file, out, omega_rad_s, speed_column, track_speed, window_s, hop_s, false_alarm_rate,
-    load_threshold, condition_every_s, healthy_prior, model_path, time_column, resistance_column,
-    follow, idle_s, quiet,
+    load_threshold, condition_every_s, model_path, time_column, resistance_column, follow, idle_s,
+    quiet,
 ):  # fmt: skip
     """Monitor a long resistance trace: per-window load state, stretches, changes and alarms.
 
@@ -233,8 +226,6 @@ def monitor(
     and DIR/monitor.png.
     """
     from signatelec.cli.common import claim_output, write_output
-    from signatelec.config.constraints import HEALTHY
-    from signatelec.estimation.condition import check_healthy_prior
     from signatelec.estimation.evidence import check_settings, stretches_and_changes
     from signatelec.estimation.health import CONDITION_EVERY_S
     from signatelec.estimation.monitor import (
@@ -268,8 +259,6 @@ def monitor(
     try:  # TraceError is a ValueError: the Python functions refuse with the same line
         settings.check()
         check_settings(settings.hop, false_alarm_rate, load_threshold)
-        if healthy_prior is not None:
-            check_healthy_prior(healthy_prior)
     except ValueError as exc:
         raise InputError(str(exc)) from None
     problem = input_size_problem(trace_file, 1 << 62)
@@ -300,8 +289,6 @@ def monitor(
     finally:
         gc.unfreeze()
     windows = table.frame()
-    if healthy_prior is not None and model.condition is not None:
-        windows = model.condition.move_to_prior(windows, healthy_prior)
     stretches, changes, alarms = stretches_and_changes(
         windows,
         settings.hop,
@@ -314,9 +301,6 @@ def monitor(
         "false_alarm_rate_per_hour": false_alarm_rate,
         "load_threshold": load_threshold,
         "condition_every_s": settings.condition_every_s if model.condition else None,
-        "healthy_prior": (
-            (healthy_prior or model.condition.training_mix[HEALTHY]) if model.condition else None
-        ),
     }
     summary = summary_of(table, settings, stretches, changes, alarms, extra, model)
     # the model's own features served the stretch model; the table keeps those it kept before

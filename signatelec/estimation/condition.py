@@ -27,6 +27,7 @@ one (:class:`~signatelec.estimation.models.LoadStateModel`).
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -228,13 +229,9 @@ def _healthy_threshold(classifier: RegimeClassifier, labels: np.ndarray) -> floa
     return float(np.quantile(oof[rows, h], FALSE_ALARM))
 
 
-def check_healthy_prior(value, name: str = "--healthy-prior") -> float:
-    """``value`` as a probability that the bearing is healthy, in (0, 1); ValueError (one line
-    naming ``name``, the value and what is allowed) otherwise."""
-    ok = isinstance(value, int | float) and not isinstance(value, bool) and 0.0 < value < 1.0
-    if not ok:
-        raise ValueError(f"{name}: {value!r}, allowed a probability of healthy in (0, 1)")
-    return float(value)
+def _probability(value) -> bool:
+    """Whether ``value`` is a real number in (0, 1]."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and 0.0 < value <= 1.0
 
 
 @dataclass
@@ -272,23 +269,34 @@ class ConditionModel:
         Decaestecker, Neural Computation 14 (2002) 21-41). ``prior``: each condition's share
         (they sum to 1), or the probability that the bearing is healthy, the faults sharing
         the rest in the training mix's proportions. The call (``condition``) is left as it is:
-        its false-alarm rate is the training mix's. Rows without probabilities stay empty, a
+        its false-alarm rate is the training mix's. Rows without probabilities stay empty; a
         frame without their columns is returned as it is."""
         mix = self.training_mix
-        if isinstance(prior, dict):
-            target = {str(k): float(v) for k, v in prior.items()}
-            if set(target) != set(mix):
-                raise ValueError(
-                    f"prior: conditions {sorted(target)}, allowed exactly {sorted(mix)}"
-                )
-        else:
-            h = check_healthy_prior(prior, "prior")
-            faults = sum(v for k, v in mix.items() if k != HEALTHY)
-            target = {k: h if k == HEALTHY else (1.0 - h) * v / faults for k, v in mix.items()}
-        bad = {k: v for k, v in target.items() if not 0.0 < v <= 1.0}
-        if bad or abs(sum(target.values()) - 1.0) > 1e-6:
+        if set(mix) != set(self.estimator.classes_.astype(str)):
             raise ValueError(
-                f"prior: {target}, allowed shares in (0, 1] for every condition, summing to 1"
+                f"the model's training mix names {sorted(mix)}, its classifier "
+                f"{sorted(self.estimator.classes_.astype(str))}: retrain it"
+            )
+        if isinstance(prior, dict):
+            target = {str(k): v for k, v in prior.items()}
+            if set(target) != set(mix):
+                raise ValueError(f"prior {sorted(target)}: must name exactly {sorted(mix)}")
+        elif HEALTHY not in mix or len(mix) < 2:
+            raise ValueError(
+                f"prior {prior!r}: a probability of healthy needs a model of healthy and faulty "
+                f"bearings (this one learnt {sorted(mix)}); give each condition's share"
+            )
+        elif not (_probability(prior) and prior < 1.0):
+            raise ValueError(f"prior {prior!r}: must be a probability of healthy in (0, 1)")
+        else:
+            faults = sum(v for k, v in mix.items() if k != HEALTHY)
+            target = {
+                k: prior if k == HEALTHY else (1 - prior) * v / faults for k, v in mix.items()
+            }
+        shares = list(target.values())
+        if not all(_probability(v) for v in shares) or abs(sum(shares) - 1.0) > 1e-6:
+            raise ValueError(
+                f"prior {prior!r}: must give each condition a share in (0, 1], summing to 1"
             )
         cols = [f"{PROBABILITY}{k}" for k in mix]
         missing = [c for c in cols if c not in frame.columns]
