@@ -16,7 +16,8 @@ jump, every ~0.2 s; an unbalanced run to whole shaft turns, its lines continued)
 of each as a speed column and 0.2 % white noise per sample (the acceptance records' noise); each
 healthy run makes a record with another healthy run in its place. Each record goes through
 ``signatelec monitor`` with the default model and the default settings (one condition assessment
-a minute).
+a minute); the alarms' probabilities are also given under a stated prior (``--healthy-prior``,
+default 0.9), as ``signatelec monitor --healthy-prior`` reports them.
 
 Per condition: the records whose condition alarm names the defect within two assessments
 (2 min) of its onset (detected), whose alarm names another condition (misnamed), and the
@@ -28,6 +29,7 @@ onset: the condition change is found by its own detector and merged into it.
 from __future__ import annotations
 
 import argparse
+import copy
 import time
 from pathlib import Path
 
@@ -38,6 +40,9 @@ from signatelec.config.constraints import HEALTHY
 
 NOISE = 0.002
 SEED = 20261124
+#: The prior probability of healthy the alarms' probabilities are also given under (a
+#: monitored bearing is healthy most of the time; the condition model's training mix has 2 in 9).
+HEALTHY_PRIOR = 0.9
 
 
 def runs_of(directory: Path) -> pd.DataFrame:
@@ -107,7 +112,7 @@ def window_call(run, model, rng) -> tuple[str | None, float]:
 def main() -> None:
     from monitor_bias import markdown
 
-    from signatelec.estimation.evidence import stretches_and_changes
+    from signatelec.estimation.evidence import report_under_prior, stretches_and_changes
     from signatelec.estimation.monitor import MonitorSettings, monitor_trace
     from signatelec.estimation.persistence import default_model
     from signatelec.io import write_bytes_atomic
@@ -117,6 +122,7 @@ def main() -> None:
     parser.add_argument("--report", default="docs/monitor/health.md")
     parser.add_argument("--minutes", type=float, default=5.0)
     parser.add_argument("--work", default="/tmp/monitor-health")
+    parser.add_argument("--healthy-prior", type=float, default=HEALTHY_PRIOR)
     args = parser.parse_args()
     start = time.process_time()
     model = default_model(log=print)
@@ -138,11 +144,15 @@ def main() -> None:
         ).to_parquet(path)
         settings = MonitorSettings(speed_column="speed_rad_s")
         windows = monitor_trace(path, model, settings).frame()
-        stretches, _, alarms = stretches_and_changes(
+        stretches, changes, alarms = stretches_and_changes(
             windows, settings.hop, stretch_model=model.stretch, faulty_model=model.faulty
         )
         condition_alarms = [a for a in alarms if a["kind"] == "condition"]
         near = [a for a in condition_alarms if abs(a["time_s"] - onset) <= 120.0]
+        moved = copy.deepcopy((stretches, changes, condition_alarms))
+        report_under_prior(*moved, model.condition, args.healthy_prior)
+        prior_p = [a["probability"] for a in moved[2]]
+        near_prior = [p for a, p in zip(condition_alarms, prior_p, strict=True) if a in near]
         before, after = (at(stretches, onset * f) for f in (0.5, 1.5))
         alone, alone_p = window_call(run, model, rng)
         rows.append(
@@ -156,6 +166,8 @@ def main() -> None:
                 "named": near[0]["what"].split(" -> ")[-1] if near else None,
                 "probability": near[0]["probability"] if near else np.nan,
                 "delay_s": near[0]["time_s"] - onset if near else np.nan,
+                "alarms_p90_prior": sum(p >= 0.9 for p in prior_p),
+                "probability_prior": near_prior[0] if near_prior else np.nan,
                 "called_before": before.get("condition"),
                 "called_after": after.get("condition"),
                 "called_after_probability": after.get("condition_probability"),
@@ -202,6 +214,13 @@ def main() -> None:
                 "load_inside_interval_after": int(g.radial_load_inside_after.sum()),
                 "median_delay_s": float(g.delay_s.median()) if faulty else None,
                 "median_probability": float(g.probability.median()) if faulty else None,
+                "detected_p90_prior": int(
+                    ((g.named == condition) & (g.probability_prior >= 0.9)).sum()
+                )
+                if faulty
+                else None,
+                "false_alarms_p90_prior": None if faulty else int(g.alarms_p90_prior.sum()),
+                "median_probability_prior": float(g.probability_prior.median()) if faulty else None,
             }
         )
     lines = [
@@ -220,7 +239,12 @@ def main() -> None:
         "own rule) with their mean probabilities, not the product of their probabilities: "
         "the assessments of one run share the model's error (`stretch_condition`, "
         "signatelec/estimation/health.py); an alarm's probability is that the two stretches' "
-        "conditions differ, from those means.",
+        "conditions differ, from those means. Columns `_prior`: the alarms' probabilities "
+        "with the stretches' condition probabilities moved from the condition model's "
+        f"training mix (healthy {model.condition.training_mix[HEALTHY]:.2f}) to a bearing "
+        f"healthy with probability {args.healthy_prior:g} before the record is read, as "
+        "`signatelec monitor --healthy-prior` reports them (Bayes' rule; the calls, changes "
+        "and alarms found are the training mix's).",
         "",
         "A spall's lines jump at the seams of a run tiled at whole ball passes (every "
         "~0.2 s); an unbalanced run is tiled at whole shaft turns instead (cut at whole ball "

@@ -211,6 +211,78 @@ def test_the_command_reports_the_condition(model_file, tile, tmp_path, capsys):
     assert (out / "monitor.png").stat().st_size > 0
 
 
+def test_a_stated_prior_moves_the_reported_probabilities_only(model_file, tile, tmp_path):
+    """--healthy-prior P: each window's condition odds are the training mix's (a third each
+    here) times the ratio of the priors (Bayes' rule), the faults sharing 1 - P in the training
+    mix's proportions: healthy against outer x (0.95 / (1/3)) / (0.025 / (1/3)) = 38, inner
+    against outer x 1; a stretch's mean probabilities move alike, a condition alarm's
+    probability is its change's times 1 - sum_k p_k(before) p_k(after) of the moved means; the
+    calls, changes, warnings and alarms found stay those of the training mix."""
+    import json
+
+    path = _record(tile, [("healthy", 40.0), ("inner", 40.0)], tmp_path / "rec.parquet", seed=9)
+    runs = {}
+    for name, extra in (("mix", []), ("prior", ["--healthy-prior", "0.95"])):
+        out = tmp_path / name
+        args = ["monitor", str(path), "--out", str(out), "--omega", "500", "--model"]
+        code = run_main([*args, str(model_file), "--condition-every", "2", "--quiet", *extra])
+        assert code == 0
+        runs[name] = (
+            pd.read_parquet(out / "windows.parquet"),
+            json.loads((out / "summary.json").read_text()),
+        )
+    (mix, mix_summary), (prior, prior_summary) = runs["mix"], runs["prior"]
+    ratio = {"healthy": 38.0, "inner": 1.0, "outer": 1.0}
+    assessed = mix["condition_probability_healthy"].notna()
+    assert assessed.sum() >= 39
+    for k in ("healthy", "inner"):
+        p, q = (w.loc[assessed, f"condition_probability_{k}"] for w in (mix, prior))
+        p_o, q_o = (w.loc[assessed, "condition_probability_outer"] for w in (mix, prior))
+        np.testing.assert_allclose((q / q_o) / (p / p_o), ratio[k])
+    pd.testing.assert_series_equal(prior["condition"], mix["condition"])
+    settings = prior_summary["settings"]
+    assert settings["healthy_prior"] == 0.95 and mix_summary["settings"]["healthy_prior"] is None
+    assert settings["condition_training_mix"] == pytest.approx(dict.fromkeys(KINDS, 1 / 3))
+
+    def moved(stretch):
+        p = {k: stretch[f"condition_probability_{k}"] * ratio[k] for k in KINDS}
+        return {k: v / sum(p.values()) for k, v in p.items()}
+
+    for a, b in zip(mix_summary["stretches"], prior_summary["stretches"], strict=True):
+        assert (a["condition"], a["start_s"], a["warnings"]) == (
+            b["condition"],
+            b["start_s"],
+            b["warnings"],
+        )
+        expected = moved(a)
+        for k in KINDS:
+            assert b[f"condition_probability_{k}"] == pytest.approx(expected[k], rel=1e-9)
+        assert b["condition_probability"] == pytest.approx(expected[b["condition"]], rel=1e-9)
+    assert mix_summary["changes"] == prior_summary["changes"]
+    (alarm,) = prior_summary["alarms"]
+    (before, after), (change,) = prior_summary["stretches"], prior_summary["changes"]
+    assert alarm["kind"] == "condition" and alarm["time_s"] == mix_summary["alarms"][0]["time_s"]
+    same = sum(
+        before[f"condition_probability_{k}"] * after[f"condition_probability_{k}"] for k in KINDS
+    )
+    assert alarm["probability"] == pytest.approx(change["probability"] * (1.0 - same), rel=1e-9)
+    assert alarm["confident"] == mix_summary["alarms"][0]["confident"]
+
+
+@pytest.mark.parametrize("value", ["0", "1", "nan", "-0.5"])
+def test_bad_healthy_prior_is_refused(model_file, tile, tmp_path, capsys, value):
+    path = _record(tile, [("healthy", 2.0)], tmp_path / "short.parquet")
+    out = tmp_path / "out"
+    code = run_main(
+        ["monitor", str(path), "--out", str(out), "--omega", "500", "--model", str(model_file),
+         "--healthy-prior", value, "--quiet"]
+    )  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    expected = f"--healthy-prior {float(value)!r}: must be a probability of healthy in (0, 1)"
+    assert code == 2 and len(err) == 1 and expected in err[0]
+    assert not out.exists()
+
+
 def test_a_record_of_a_spalled_bearing_answers_its_condition(model_file, tile, tmp_path, capsys):
     """From the first block on, the inner race's line is the strongest (not the ball-pass
     ripple): a wrong speed, unless the condition model confidently calls that very defect, as

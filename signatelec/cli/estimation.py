@@ -201,6 +201,13 @@ def train(dataset, out, quiet):
     help="Trace between two assessments of the bearing's condition, s (default: one a minute; "
     "0: none).",
 )
+@click.option(
+    "--healthy-prior",
+    type=float,
+    default=None,
+    help="Probability that the bearing is healthy before the trace is read: the condition "
+    "probabilities reported are under it (default: the condition model's training mix).",
+)
 @click.option("--model", "model_path", type=str, default=None, help="Model file (as for estimate).")
 @trace_columns
 @click.option(
@@ -216,8 +223,8 @@ def train(dataset, out, quiet):
 @click.option("--quiet", is_flag=True, help="No progress or summary.")
 def monitor(
     trace_file, out, omega_rad_s, speed_column, track_speed, window_s, hop_s, false_alarm_rate,
-    load_threshold, condition_every_s, model_path, time_column, resistance_column, follow, idle_s,
-    quiet,
+    load_threshold, condition_every_s, healthy_prior, model_path, time_column, resistance_column,
+    follow, idle_s, quiet,
 ):  # fmt: skip
     """Monitor a long resistance trace: per-window load state, stretches, changes and alarms.
 
@@ -226,7 +233,12 @@ def monitor(
     and DIR/monitor.png.
     """
     from signatelec.cli.common import claim_output, write_output
-    from signatelec.estimation.evidence import check_settings, stretches_and_changes
+    from signatelec.estimation.condition import check_healthy_prior
+    from signatelec.estimation.evidence import (
+        check_settings,
+        report_under_prior,
+        stretches_and_changes,
+    )
     from signatelec.estimation.health import CONDITION_EVERY_S
     from signatelec.estimation.monitor import (
         KEPT_FEATURES,
@@ -259,6 +271,8 @@ def monitor(
     try:  # TraceError is a ValueError: the Python functions refuse with the same line
         settings.check()
         check_settings(settings.hop, false_alarm_rate, load_threshold)
+        if healthy_prior is not None:
+            check_healthy_prior(healthy_prior)
     except ValueError as exc:
         raise InputError(str(exc)) from None
     problem = input_size_problem(trace_file, 1 << 62)
@@ -277,6 +291,15 @@ def monitor(
         )
     except ModelError as exc:
         raise InputError(str(exc)) from None
+    if healthy_prior is not None:  # before the trace is read: a model it cannot apply to
+        import pandas as pd
+
+        if model.condition is None:
+            raise InputError(f"--healthy-prior {healthy_prior!r}: the model has no condition model")
+        try:
+            model.condition.move_to_prior(pd.DataFrame(), healthy_prior)
+        except ValueError as exc:
+            raise InputError(f"--healthy-prior: {exc}") from None
     # the model's objects live until the end: the collector need not walk them again and again
     # (~1 s an hour of trace with the stretch model's trees); unfrozen once the trace is read,
     # so that whatever was garbage then is collected after (a full collection first: 0.14 s)
@@ -301,8 +324,16 @@ def monitor(
         "false_alarm_rate_per_hour": false_alarm_rate,
         "load_threshold": load_threshold,
         "condition_every_s": settings.condition_every_s if model.condition else None,
+        "condition_training_mix": model.condition.training_mix if model.condition else None,
+        "healthy_prior": healthy_prior,
     }
     summary = summary_of(table, settings, stretches, changes, alarms, extra, model)
+    if healthy_prior is not None:  # the calls, changes and warnings stay the training mix's
+        report_under_prior(
+            summary["stretches"], summary["changes"], summary["alarms"], model.condition,
+            healthy_prior,
+        )  # fmt: skip
+        windows = model.condition.move_to_prior(windows, healthy_prior)
     # the model's own features served the stretch model; the table keeps those it kept before
     # (~0.2 s an hour of 50 kHz trace to write them all)
     spare = [c for c in kept_features(model) if c not in (*KEPT_FEATURES, "omega_rad_s")]

@@ -229,6 +229,13 @@ def _healthy_threshold(classifier: RegimeClassifier, labels: np.ndarray) -> floa
     return float(np.quantile(oof[rows, h], FALSE_ALARM))
 
 
+def check_healthy_prior(value, name: str = "--healthy-prior") -> None:
+    """ValueError (one line naming ``name``, the value and what is allowed) unless ``value``
+    is a probability that the bearing is healthy, in (0, 1)."""
+    if not (_probability(value) and value < 1.0):
+        raise ValueError(f"{name} {value!r}: must be a probability of healthy in (0, 1)")
+
+
 def _probability(value) -> bool:
     """Whether ``value`` is a real number in (0, 1]."""
     return isinstance(value, numbers.Real) and not isinstance(value, bool) and 0.0 < value <= 1.0
@@ -286,9 +293,8 @@ class ConditionModel:
                 f"prior {prior!r}: a probability of healthy needs a model of healthy and faulty "
                 f"bearings (this one learnt {sorted(mix)}); give each condition's share"
             )
-        elif not (_probability(prior) and prior < 1.0):
-            raise ValueError(f"prior {prior!r}: must be a probability of healthy in (0, 1)")
         else:
+            check_healthy_prior(prior, "prior")
             faults = sum(v for k, v in mix.items() if k != HEALTHY)
             target = {
                 k: prior if k == HEALTHY else (1 - prior) * v / faults for k, v in mix.items()

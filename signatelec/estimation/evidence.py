@@ -416,15 +416,50 @@ def alarms(
     for name in CLASS_OUTPUTS:
         if name not in before or name not in after or (name == "condition" and not condition):
             continue
-        keys = [k for k in before if k.startswith(f"{name}_probability_")]
-        same = sum(before[k] * after.get(k, 0.0) for k in keys)
         if before[name] != after[name]:
             out.append(
                 {
                     "time_s": time_s,
                     "kind": name,
                     "what": f"{name} {before[name]} -> {after[name]}",
-                    "probability": p_change * (1.0 - same),
+                    "probability": p_change * _differ(before, after, name),
                 }
             )
     return out
+
+
+def _differ(before: dict, after: dict, name: str) -> float:
+    """The probability that two stretches' classes ``name`` differ, from their probabilities."""
+    keys = [k for k in before if k.startswith(f"{name}_probability_")]
+    return 1.0 - sum(before[k] * after.get(k, 0.0) for k in keys)
+
+
+def report_under_prior(
+    stretches: list[dict], changes: list[dict], alarms_: list[dict], condition_model, prior
+) -> None:
+    """Move, in place, the condition probabilities the stretches and the condition alarms
+    report from ``condition_model``'s training mix to ``prior`` (a probability of healthy or
+    each condition's share: :meth:`~signatelec.estimation.condition.ConditionModel.
+    move_to_prior`), once every call, change and warning was made on the training mix (the
+    call's false-alarm rate is measured there). A stretch's mean probabilities are moved as
+    one posterior (Bayes' rule), its ``condition_probability`` is then its call's; a condition
+    alarm's probability is its change's times the probability that the two stretches' moved
+    conditions differ, as :func:`alarms` gives it."""
+    cols = [f"condition_probability_{k}" for k in condition_model.training_mix]
+    rows = [s for s in stretches if all(c in s for c in cols)]
+    if not rows:
+        return
+    moved = condition_model.move_to_prior(
+        pd.DataFrame([{c: s[c] for c in cols} for s in rows]), prior
+    )
+    for s, p in zip(rows, moved.to_dict("records"), strict=True):
+        s.update(p)
+        s["condition_probability"] = s[f"condition_probability_{s['condition']}"]
+    p_change = {c["time_s"]: c["probability"] for c in changes}
+    for a in alarms_:
+        if a["kind"] != "condition":
+            continue
+        before = [s for s in stretches if abs(s["end_s"] - a["time_s"]) < 1e-9]
+        after = [s for s in stretches if abs(s["start_s"] - a["time_s"]) < 1e-9]
+        if before and after and a["time_s"] in p_change:
+            a["probability"] = p_change[a["time_s"]] * _differ(before[0], after[0], "condition")
