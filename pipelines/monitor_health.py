@@ -152,7 +152,11 @@ def main() -> None:
         moved = copy.deepcopy((stretches, changes, condition_alarms))
         report_under_prior(*moved, model.condition, args.healthy_prior)
         prior_p = [a["probability"] for a in moved[2]]
-        near_prior = [p for a, p in zip(condition_alarms, prior_p, strict=True) if a in near]
+        near_prior = [
+            p
+            for a, p in zip(condition_alarms, prior_p, strict=True)
+            if abs(a["time_s"] - onset) <= 120.0
+        ]
         before, after = (at(stretches, onset * f) for f in (0.5, 1.5))
         alone, alone_p = window_call(run, model, rng)
         rows.append(

@@ -328,6 +328,7 @@ def test_follow_a_growing_csv(model_file, tiles, tmp_path):
         ("ok", ["--omega", "500", "--hop", "0.5"], "longer than --window"),
         ("ok", ["--omega", "500", "--false-alarm-rate", "0"], "--false-alarm-rate"),
         ("ok", ["--omega", "500", "--follow"], "--follow reads a CSV"),
+        ("ok", ["--omega", "500", "--healthy-prior", "0.9"], "has no condition model"),
         ("ok", ["--speed-column", "v"], "no column 'v'"),
         ("mohm", ["--omega", "500"], "is the column in mOhm"),
         ("text", ["--omega", "500"], "holds text at row 7"),

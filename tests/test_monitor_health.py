@@ -283,6 +283,48 @@ def test_a_stated_prior_moves_the_reported_probabilities_only(model_file, tile, 
     assert alarm["confident"] == mix_summary["alarms"][0]["confident"]
 
 
+def test_prior_moves_each_alarm_by_its_own_change():
+    """report_under_prior pairs a condition alarm with the change that raised it (``change``
+    i: stretches i and i + 1), even where two changes share a time (a zero-length stretch
+    between them), and moves each stretch's mean probabilities by Bayes' rule."""
+    from signatelec.estimation.condition import ConditionModel
+    from signatelec.estimation.evidence import report_under_prior
+
+    model = ConditionModel(
+        estimator=ConditionEstimator(), features=[], info={"classes": dict.fromkeys(KINDS, 10)},
+        domain=None,
+    )  # fmt: skip
+    model.estimator.classes_ = np.array(sorted(KINDS), dtype=object)
+    probs = [(0.6, 0.3, 0.1), (0.1, 0.2, 0.7), (0.2, 0.7, 0.1)]  # healthy, inner, outer
+    calls = ["healthy", "outer", "inner"]
+    stretches = [
+        {"start_s": a, "end_s": b, "condition": c, "condition_probability": max(p)}
+        | {
+            f"condition_probability_{k}": v
+            for k, v in zip(("healthy", "inner", "outer"), p, strict=True)
+        }
+        for (a, b), c, p in zip([(0, 10), (10, 10), (10, 20)], calls, probs, strict=True)
+    ]
+    changes = [{"time_s": 10.0, "probability": 0.5}, {"time_s": 10.0, "probability": 0.8}]
+    alarms = [
+        {"time_s": 10.0, "kind": "condition", "change": 0, "probability": None},
+        {"time_s": 10.0, "kind": "condition", "change": 1, "probability": None},
+    ]
+    report_under_prior(stretches, changes, alarms, model, 0.9)
+    ratio = {"healthy": 0.9 * 3, "inner": 0.05 * 3, "outer": 0.05 * 3}
+
+    def moved(p):
+        q = {k: v * ratio[k] for k, v in zip(("healthy", "inner", "outer"), p, strict=True)}
+        return {k: v / sum(q.values()) for k, v in q.items()}
+
+    m = [moved(p) for p in probs]
+    for s, mk, c in zip(stretches, m, calls, strict=True):
+        assert s["condition_probability"] == pytest.approx(mk[c])
+    for a, (i, p) in zip(alarms, [(0, 0.5), (1, 0.8)], strict=True):
+        same = sum(m[i][k] * m[i + 1][k] for k in KINDS)
+        assert a["probability"] == pytest.approx(p * (1.0 - same))
+
+
 def test_a_record_of_a_spalled_bearing_answers_its_condition(model_file, tile, tmp_path, capsys):
     """From the first block on, the inner race's line is the strongest (not the ball-pass
     ripple): a wrong speed, unless the condition model confidently calls that very defect, as

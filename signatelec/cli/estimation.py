@@ -233,6 +233,7 @@ def monitor(
     and DIR/monitor.png.
     """
     from signatelec.cli.common import claim_output, write_output
+    from signatelec.config.constraints import HEALTHY
     from signatelec.estimation.condition import check_healthy_prior
     from signatelec.estimation.evidence import (
         check_settings,
@@ -334,6 +335,12 @@ def monitor(
             healthy_prior,
         )  # fmt: skip
         windows = model.condition.move_to_prior(windows, healthy_prior)
+        mix = model.condition.training_mix.get(HEALTHY)
+        summary["notes"].append(
+            f"condition probabilities under P(healthy) = {healthy_prior:g} before the record "
+            f"(the condition model's training mix: {mix:.3g}); the calls, changes and warnings "
+            "were made under the training mix"
+        )
     # the model's own features served the stretch model; the table keeps those it kept before
     # (~0.2 s an hour of 50 kHz trace to write them all)
     spare = [c for c in kept_features(model) if c not in (*KEPT_FEATURES, "omega_rad_s")]

@@ -328,10 +328,12 @@ def stretches_and_changes(
         stretches.append(s)
     found.sort(key=lambda c: c[1])
     changes, alarm_list = [], []
-    for (_, t, p, cond_changed), before, after in zip(
-        found, stretches[:-1], stretches[1:], strict=True
+    for i, ((_, t, p, cond_changed), before, after) in enumerate(
+        zip(found, stretches[:-1], stretches[1:], strict=True)
     ):
         raised = alarms(before, after, t, p, load_threshold, condition=cond_changed)
+        for a in raised:
+            a["change"] = i  # the change between stretches i and i + 1
         what = "; ".join(a["what"] for a in raised) or _described(before, after)
         changes.append({"time_s": t, "what": what, "probability": p})
         alarm_list.extend(raised)
@@ -444,7 +446,8 @@ def report_under_prior(
     call's false-alarm rate is measured there). A stretch's mean probabilities are moved as
     one posterior (Bayes' rule), its ``condition_probability`` is then its call's; a condition
     alarm's probability is its change's times the probability that the two stretches' moved
-    conditions differ, as :func:`alarms` gives it."""
+    conditions differ, as :func:`alarms` gives it (an alarm's ``change`` i: between stretches
+    i and i + 1)."""
     cols = [f"condition_probability_{k}" for k in condition_model.training_mix]
     rows = [s for s in stretches if all(c in s for c in cols)]
     if not rows:
@@ -455,11 +458,8 @@ def report_under_prior(
     for s, p in zip(rows, moved.to_dict("records"), strict=True):
         s.update(p)
         s["condition_probability"] = s[f"condition_probability_{s['condition']}"]
-    p_change = {c["time_s"]: c["probability"] for c in changes}
     for a in alarms_:
-        if a["kind"] != "condition":
-            continue
-        before = [s for s in stretches if abs(s["end_s"] - a["time_s"]) < 1e-9]
-        after = [s for s in stretches if abs(s["start_s"] - a["time_s"]) < 1e-9]
-        if before and after and a["time_s"] in p_change:
-            a["probability"] = p_change[a["time_s"]] * _differ(before[0], after[0], "condition")
+        if a["kind"] == "condition":
+            i = a["change"]
+            differ = _differ(stretches[i], stretches[i + 1], "condition")
+            a["probability"] = changes[i]["probability"] * differ

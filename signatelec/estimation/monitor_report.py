@@ -10,7 +10,7 @@
   ``radial_load_n`` with ``_low`` and ``_high``, ``epsilon``, ``clearance_m``, ``regime``,
   ``regime_probability``, ``condition``, ``condition_probability``, ...), ``changes``
   (``time_s``, ``what``, ``probability``) and ``alarms`` (``time_s``, ``kind``: load, regime or
-  condition, ``what``, ``probability``);
+  condition, ``what``, ``probability``, ``change``: the index of the change that raised it);
 - ``monitor.png``: resistance envelope, F_r with its band (windows and stretches), regime
   probabilities and the share of the condition's assessments called faulty, alarms against time.
 """
