@@ -293,12 +293,10 @@ def monitor(
     except ModelError as exc:
         raise InputError(str(exc)) from None
     if healthy_prior is not None:  # before the trace is read: a model it cannot apply to
-        import pandas as pd
-
         if model.condition is None:
             raise InputError(f"--healthy-prior {healthy_prior!r}: the model has no condition model")
         try:
-            model.condition.move_to_prior(pd.DataFrame(), healthy_prior)
+            model.condition.prior_shares(healthy_prior)
         except ValueError as exc:
             raise InputError(f"--healthy-prior: {exc}") from None
     # the model's objects live until the end: the collector need not walk them again and again

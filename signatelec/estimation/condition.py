@@ -279,6 +279,22 @@ class ConditionModel:
         its false-alarm rate is the training mix's. Rows without probabilities stay empty; a
         frame without their columns is returned as it is."""
         mix = self.training_mix
+        target = self.prior_shares(prior)
+        cols = [f"{PROBABILITY}{k}" for k in mix]
+        missing = [c for c in cols if c not in frame.columns]
+        if len(missing) == len(cols):  # no condition assessed
+            return frame
+        if missing:
+            raise ValueError(f"frame lacks the probability columns {missing}")
+        p = frame[cols].to_numpy(np.float64) * np.array([target[k] / mix[k] for k in mix])
+        out = frame.copy()
+        out[cols] = p / p.sum(axis=1, keepdims=True)
+        return out
+
+    def prior_shares(self, prior: float | dict[str, float]) -> dict[str, float]:
+        """Each condition's share under ``prior`` (:meth:`move_to_prior`'s), or ValueError (one
+        line naming the value and what is allowed)."""
+        mix = self.training_mix
         if set(mix) != set(self.estimator.classes_.astype(str)):
             raise ValueError(
                 f"the model's training mix names {sorted(mix)}, its classifier "
@@ -304,13 +320,4 @@ class ConditionModel:
             raise ValueError(
                 f"prior {prior!r}: must give each condition a share in (0, 1], summing to 1"
             )
-        cols = [f"{PROBABILITY}{k}" for k in mix]
-        missing = [c for c in cols if c not in frame.columns]
-        if len(missing) == len(cols):  # no condition assessed
-            return frame
-        if missing:
-            raise ValueError(f"frame lacks the probability columns {missing}")
-        p = frame[cols].to_numpy(np.float64) * np.array([target[k] / mix[k] for k in mix])
-        out = frame.copy()
-        out[cols] = p / p.sum(axis=1, keepdims=True)
-        return out
+        return target

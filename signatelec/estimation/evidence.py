@@ -51,6 +51,7 @@ from signatelec.estimation.changes import (
     effective_fraction,
     rate_shares,
 )
+from signatelec.estimation.condition import PROBABILITY
 from signatelec.estimation.health import (
     assessed_windows,
     condition_changes,
@@ -448,7 +449,7 @@ def report_under_prior(
     alarm's probability is its change's times the probability that the two stretches' moved
     conditions differ, as :func:`alarms` gives it (an alarm's ``change`` i: between stretches
     i and i + 1)."""
-    cols = [f"condition_probability_{k}" for k in condition_model.training_mix]
+    cols = [f"{PROBABILITY}{k}" for k in condition_model.training_mix]
     rows = [s for s in stretches if all(c in s for c in cols)]
     if not rows:
         return
@@ -457,7 +458,7 @@ def report_under_prior(
     )
     for s, p in zip(rows, moved.to_dict("records"), strict=True):
         s.update(p)
-        s["condition_probability"] = s[f"condition_probability_{s['condition']}"]
+        s["condition_probability"] = s[f"{PROBABILITY}{s['condition']}"]
     for a in alarms_:
         if a["kind"] == "condition":
             i = a["change"]
