@@ -281,6 +281,36 @@ def test_estimate_names_the_condition(model_file, tmp_path, capsys, kind):
         assert res["spall_length_m"] is None and "radial_load_n" in res
 
 
+def test_estimate_reports_under_a_stated_prior(model_file, tmp_path, capsys):
+    """--healthy-prior 0.9: the probabilities' odds are the training mix's (a fifth each here)
+    times the ratio of the priors (Bayes' rule), the faults sharing 0.1 in the training mix's
+    proportions: healthy against outer x (0.9 / 0.2) / (0.025 / 0.2) = 36, inner against outer
+    x 1; the call and its confidence stay the training mix's, a note says the prior."""
+    rng = np.random.default_rng(21)
+    r, ex = _example_with("inner", rng, 0.05)
+    src = tmp_path / "trace.csv"
+    pd.DataFrame({"time_s": ex["time_s"], "resistance_ohm": r}).to_csv(src, index=False)
+    res = {}
+    for name, extra in (("mix", []), ("prior", ["--healthy-prior", "0.9"])):
+        out = tmp_path / f"{name}.json"
+        args = ["estimate", str(src), "--omega", "500", "--model", str(model_file)]
+        assert _run([*args, "--out", str(out), "--quiet", *extra]) == 0
+        res[name] = json.loads(out.read_text())
+    p, q = ({c: r[f"condition_probability_{c}"] for c in CONDITIONS} for r in res.values())
+    assert (q["healthy"] / q["outer"]) / (p["healthy"] / p["outer"]) == pytest.approx(36.0)
+    assert (q["inner"] / q["outer"]) / (p["inner"] / p["outer"]) == pytest.approx(1.0)
+    assert sum(q.values()) == pytest.approx(1.0)
+    for key in ("condition", "condition_confident", "spall_length_m"):
+        assert res["prior"][key] == res["mix"][key]
+    assert res["prior"]["notes"][:-1] == res["mix"]["notes"]
+    assert res["prior"]["notes"][-1].startswith("condition probabilities under P(healthy) = 0.9")
+    code = _run(["estimate", str(src), "--omega", "500", "--model", str(model_file),
+                 "--healthy-prior", "1.5"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert "--healthy-prior 1.5: must be a probability of healthy in (0, 1)" in err[0]
+
+
 def test_a_defect_line_without_the_defect_is_a_wrong_speed(model_file, tmp_path, capsys):
     """A line on BPFI that the condition model does not call confidently is refused as the
     sanity layer says (a wrong --omega), exit 2."""

@@ -28,6 +28,30 @@ def trace_columns(command):
     )(command)
 
 
+def healthy_prior_option(command):
+    """``--healthy-prior P``: the condition probabilities reported under a stated prior."""
+    return click.option(
+        "--healthy-prior",
+        type=float,
+        default=None,
+        help="Probability that the bearing is healthy before the trace is read: the condition "
+        "probabilities reported are under it, the calls the training mix's (default: the "
+        "condition model's training mix).",
+    )(command)
+
+
+def _check_prior(model, healthy_prior) -> None:
+    """InputError unless ``model``'s condition model can report under ``healthy_prior``."""
+    if healthy_prior is None:
+        return
+    if model.condition is None:
+        raise InputError(f"--healthy-prior {healthy_prior!r}: the model has no condition model")
+    try:
+        model.condition.prior_shares(healthy_prior)
+    except ValueError as exc:
+        raise InputError(f"--healthy-prior: {exc}") from None
+
+
 @cli.command()
 @click.argument("trace_file", metavar="TRACE", type=str)
 @click.option("--omega", "omega_rad_s", type=float, required=True, help="Inner-ring speed, rad/s.")
@@ -49,11 +73,13 @@ def trace_columns(command):
     "the defects' characteristic frequencies (default: the seed's bearing; the load state is "
     "estimated for the seed's bearing only).",
 )
+@healthy_prior_option
 @trace_columns
 @click.option("--quiet", is_flag=True, help="No summary.")
 def estimate(
-    trace_file, omega_rad_s, model_path, out, designation, time_column, resistance_column, quiet
-):
+    trace_file, omega_rad_s, model_path, out, designation, healthy_prior, time_column,
+    resistance_column, quiet,
+):  # fmt: skip
     """Estimate F_r, epsilon, clearance and regime from a resistance trace (CSV or Parquet).
 
     The trace needs at least 5 ball passes; isolated missing samples, small gaps and uneven
@@ -61,8 +87,10 @@ def estimate(
     not at the frequency --omega predicts, whose level is outside the model's range or whose
     features are unlike its training traces is refused (exit 2).
     """
+    from signatelec.estimation.condition import check_healthy_prior
     from signatelec.estimation.domain import DomainError
     from signatelec.estimation.estimate import estimate as run_estimate
+    from signatelec.estimation.estimate import under_prior
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.estimation.report import format_estimate
     from signatelec.estimation.report import write_result as write_estimate
@@ -70,6 +98,11 @@ def estimate(
 
     if out is not None:
         check_writable_file(out, suffixes=(".json", ".parquet"))
+    if healthy_prior is not None:
+        try:
+            check_healthy_prior(healthy_prior)
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
     bearing = None
     if designation is not None:
         from signatelec.config.catalogue import CatalogueError, catalogue_bearing
@@ -96,10 +129,13 @@ def estimate(
             model = default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
     except ModelError as exc:
         raise InputError(str(exc)) from None
+    _check_prior(model, healthy_prior)
     try:
         result = run_estimate(trace, omega_rad_s, model, bearing=bearing)
     except (TraceError, DomainError) as exc:
         raise InputError(str(exc)) from None
+    if healthy_prior is not None:
+        result = under_prior(result, model.condition, healthy_prior)
     if out is not None:
         try:
             write_estimate(result, out)
@@ -201,13 +237,7 @@ def train(dataset, out, quiet):
     help="Trace between two assessments of the bearing's condition, s (default: one a minute; "
     "0: none).",
 )
-@click.option(
-    "--healthy-prior",
-    type=float,
-    default=None,
-    help="Probability that the bearing is healthy before the trace is read: the condition "
-    "probabilities reported are under it (default: the condition model's training mix).",
-)
+@healthy_prior_option
 @click.option("--model", "model_path", type=str, default=None, help="Model file (as for estimate).")
 @trace_columns
 @click.option(
@@ -233,7 +263,6 @@ def monitor(
     and DIR/monitor.png.
     """
     from signatelec.cli.common import claim_output, write_output
-    from signatelec.config.constraints import HEALTHY
     from signatelec.estimation.condition import check_healthy_prior
     from signatelec.estimation.evidence import (
         check_settings,
@@ -292,13 +321,7 @@ def monitor(
         )
     except ModelError as exc:
         raise InputError(str(exc)) from None
-    if healthy_prior is not None:  # before the trace is read: a model it cannot apply to
-        if model.condition is None:
-            raise InputError(f"--healthy-prior {healthy_prior!r}: the model has no condition model")
-        try:
-            model.condition.prior_shares(healthy_prior)
-        except ValueError as exc:
-            raise InputError(f"--healthy-prior: {exc}") from None
+    _check_prior(model, healthy_prior)  # before the trace is read
     # the model's objects live until the end: the collector need not walk them again and again
     # (~1 s an hour of trace with the stretch model's trees); unfrozen once the trace is read,
     # so that whatever was garbage then is collected after (a full collection first: 0.14 s)
@@ -333,12 +356,7 @@ def monitor(
             healthy_prior,
         )  # fmt: skip
         windows = model.condition.move_to_prior(windows, healthy_prior)
-        mix = model.condition.training_mix.get(HEALTHY)
-        summary["notes"].append(
-            f"condition probabilities under P(healthy) = {healthy_prior:g} before the record "
-            f"(the condition model's training mix: {mix:.3g}); the calls, changes and warnings "
-            "were made under the training mix"
-        )
+        summary["notes"].append(model.condition.prior_note(healthy_prior))
     # the model's own features served the stretch model; the table keeps those it kept before
     # (~0.2 s an hour of 50 kHz trace to write them all)
     spare = [c for c in kept_features(model) if c not in (*KEPT_FEATURES, "omega_rad_s")]

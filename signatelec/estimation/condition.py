@@ -291,6 +291,16 @@ class ConditionModel:
         out[cols] = p / p.sum(axis=1, keepdims=True)
         return out
 
+    def prior_note(self, prior: float | dict[str, float]) -> str:
+        """The note of an answer whose condition probabilities were moved to ``prior``."""
+        shown = f"P(healthy) = {prior:g}" if not isinstance(prior, dict) else f"the prior {prior}"
+        mix = self.training_mix.get(HEALTHY)
+        trained = f" (the condition model's training mix: {mix:.3g})" if mix is not None else ""
+        return (
+            f"condition probabilities under {shown} before the trace{trained}; the calls and "
+            "their warnings were made under the training mix"
+        )
+
     def prior_shares(self, prior: float | dict[str, float]) -> dict[str, float]:
         """Each condition's share under ``prior`` (:meth:`move_to_prior`'s), or ValueError (one
         line naming the value and what is allowed)."""
