@@ -148,15 +148,12 @@ def main() -> None:
             windows, settings.hop, stretch_model=model.stretch, faulty_model=model.faulty
         )
         condition_alarms = [a for a in alarms if a["kind"] == "condition"]
-        near = [a for a in condition_alarms if abs(a["time_s"] - onset) <= 120.0]
         moved = copy.deepcopy((stretches, changes, condition_alarms))
         report_under_prior(*moved, model.condition, args.healthy_prior)
         prior_p = [a["probability"] for a in moved[2]]
-        near_prior = [
-            p
-            for a, p in zip(condition_alarms, prior_p, strict=True)
-            if abs(a["time_s"] - onset) <= 120.0
-        ]
+        near_i = [i for i, a in enumerate(condition_alarms) if abs(a["time_s"] - onset) <= 120.0]
+        near = [condition_alarms[i] for i in near_i]
+        near_prior = [prior_p[i] for i in near_i]
         before, after = (at(stretches, onset * f) for f in (0.5, 1.5))
         alone, alone_p = window_call(run, model, rng)
         rows.append(

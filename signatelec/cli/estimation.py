@@ -98,11 +98,10 @@ def estimate(
 
     if out is not None:
         check_writable_file(out, suffixes=(".json", ".parquet"))
-    if healthy_prior is not None:
-        try:
-            check_healthy_prior(healthy_prior)
-        except ValueError as exc:
-            raise InputError(str(exc)) from None
+    try:
+        check_healthy_prior(healthy_prior)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
     bearing = None
     if designation is not None:
         from signatelec.config.catalogue import CatalogueError, catalogue_bearing
@@ -301,8 +300,7 @@ def monitor(
     try:  # TraceError is a ValueError: the Python functions refuse with the same line
         settings.check()
         check_settings(settings.hop, false_alarm_rate, load_threshold)
-        if healthy_prior is not None:
-            check_healthy_prior(healthy_prior)
+        check_healthy_prior(healthy_prior)
     except ValueError as exc:
         raise InputError(str(exc)) from None
     problem = input_size_problem(trace_file, 1 << 62)

@@ -231,8 +231,8 @@ def _healthy_threshold(classifier: RegimeClassifier, labels: np.ndarray) -> floa
 
 def check_healthy_prior(value, name: str = "--healthy-prior") -> None:
     """ValueError (one line naming ``name``, the value and what is allowed) unless ``value``
-    is a probability that the bearing is healthy, in (0, 1)."""
-    if not (_probability(value) and value < 1.0):
+    is a probability that the bearing is healthy, in (0, 1), or None (none given)."""
+    if value is not None and not (_probability(value) and value < 1.0):
         raise ValueError(f"{name} {value!r}: must be a probability of healthy in (0, 1)")
 
 
@@ -290,6 +290,18 @@ class ConditionModel:
         out = frame.copy()
         out[cols] = p / p.sum(axis=1, keepdims=True)
         return out
+
+    def move_records(self, records: list[dict], prior: float | dict[str, float]) -> list[dict]:
+        """Move, in place, the condition probabilities of those ``records`` (dicts: an
+        estimate's result, a monitor's stretches) that hold a number for every condition, as
+        :meth:`move_to_prior` moves a table's rows; returns those records."""
+        cols = [f"{PROBABILITY}{k}" for k in self.training_mix]
+        rows = [r for r in records if all(isinstance(r.get(c), int | float) for c in cols)]
+        if rows:
+            frame = pd.DataFrame([{c: r[c] for c in cols} for r in rows])
+            for r, p in zip(rows, self.move_to_prior(frame, prior).to_dict("records"), strict=True):
+                r.update({c: float(v) for c, v in p.items()})
+        return rows
 
     def prior_note(self, prior: float | dict[str, float]) -> str:
         """The note of an answer whose condition probabilities were moved to ``prior``."""

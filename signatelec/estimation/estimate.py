@@ -231,15 +231,8 @@ def under_prior(result: dict, condition_model, prior) -> dict:
     ConditionModel.move_to_prior`) and a note saying so; the call, ``condition_confident`` and
     the notes made from them stay the training mix's (the call's false-alarm rate is measured
     there). A result whose condition was not assessed is returned as it is."""
-    import pandas as pd
-
-    from signatelec.estimation.condition import PROBABILITY
-
-    cols = [f"{PROBABILITY}{k}" for k in condition_model.training_mix]
-    if not all(isinstance(result.get(c), int | float) for c in cols):
+    out = dict(result)
+    if not condition_model.move_records([out], prior):
         return result
-    row = pd.DataFrame([{c: result[c] for c in cols}])
-    moved = condition_model.move_to_prior(row, prior).iloc[0]
-    out = result | {c: float(moved[c]) for c in cols}
     out["notes"] = [*result.get("notes", []), condition_model.prior_note(prior)]
     return out

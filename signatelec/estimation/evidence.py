@@ -449,15 +449,7 @@ def report_under_prior(
     alarm's probability is its change's times the probability that the two stretches' moved
     conditions differ, as :func:`alarms` gives it (an alarm's ``change`` i: between stretches
     i and i + 1)."""
-    cols = [f"{PROBABILITY}{k}" for k in condition_model.training_mix]
-    rows = [s for s in stretches if all(c in s for c in cols)]
-    if not rows:
-        return
-    moved = condition_model.move_to_prior(
-        pd.DataFrame([{c: s[c] for c in cols} for s in rows]), prior
-    )
-    for s, p in zip(rows, moved.to_dict("records"), strict=True):
-        s.update(p)
+    for s in condition_model.move_records(stretches, prior):
         s["condition_probability"] = s[f"{PROBABILITY}{s['condition']}"]
     for a in alarms_:
         if a["kind"] == "condition":
