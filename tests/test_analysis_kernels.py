@@ -13,7 +13,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy import fft as sfft
 from scipy import signal
 
 from signatelec.estimation.analysis import _line_fit, analyse_windows, band_mean, band_means
@@ -63,37 +62,54 @@ def test_line_fit_recovers_a_line():
     assert slope == pytest.approx(b, rel=5e-14)
 
 
-def test_welch_is_scipy_s_and_white_noise_s():
+@pytest.mark.parametrize("top", [9.0, 0.0])
+def test_welch_is_scipy_s_and_white_noise_s(top):
     """The Welch density (Hann, half overlap, both arrays' rows of one segment length
-    together): scipy.signal.welch's estimate to 1e-14 relative (the same segments, summed in
-    another order: measured 2e-15), the numpy form it replaces bit for bit, and for white noise of
-    variance s^2 the one-sided level 2 s^2 / fs (Parseval: the variance is the density's
-    integral over [0, fs / 2]) within the estimate's scatter (~1 % for 2 rows of 243 bins
-    averaged over ~30 segments; measured 1.7 % and 0.2 %, 5 % allowed)."""
+    together) at its bins up to the first at or above ``top`` f_bp (every bin for 0):
+    scipy.signal.welch's estimate to 1e-13 relative (a DFT of each segment at those bins,
+    summed in another order: measured 1.5e-15), the power below the last bin df times the sum
+    of scipy's density over them to 1e-13 (Parseval's sum less the last bin: measured 7e-16),
+    at even and odd lengths, with a large prime factor (538 = 2 x 269, 487) or none (480), down
+    to segments of 3 and 4 samples; and for white noise of variance s^2 the one-sided level
+    2 s^2 / fs (Parseval: the variance is the density's integral over [0, fs / 2]) within the
+    estimate's scatter (~1 % for 2 rows averaged over ~40 segments; measured 1.7 % and 0.2 %,
+    5 % allowed)."""
     fs, n, sigma = 50000.0, 10000, 3e-3
     rng = np.random.default_rng(7)
-    x = sigma * rng.standard_normal((3, n))
-    y = rng.standard_normal((3, n)) + np.sin(2 * np.pi * 1234.0 * np.arange(n) / fs)
-    f_bp = np.array([409.7, 409.7, 300.0])  # two segment lengths: 488 and 667
-    groups = welch_rows((x, y), fs, f_bp, 4)
-    assert [list(rows) for rows, _, _ in groups] == [[0, 1], [2]]
-    for rows, freq, (px, py) in groups:
-        nper = int(round(4 * fs / f_bp[rows[0]]))
-        for arr, p in ((x, px), (y, py)):
+    lengths = [488, 488, 667, 538, 487, 480, 4, 3]
+    f_bp = 4 * fs / np.array(lengths, dtype=float)
+    x = sigma * rng.standard_normal((len(lengths), n))
+    y = rng.standard_normal((len(lengths), n)) + np.sin(2 * np.pi * 1234.0 * np.arange(n) / fs)
+    groups = welch_rows((x, y), fs, f_bp, 4, top)
+    assert sorted(tuple(rows) for rows, *_ in groups) == sorted(
+        [(0, 1), (2,), (3,), (4,), (5,), (6,), (7,)]
+    )
+    for rows, freq, densities, powers in groups:
+        nper = lengths[rows[0]]
+        for arr, p, power in zip((x, y), densities, powers, strict=True):
             # a step of nper // 2 samples (half overlap, rounded down for an odd segment)
             ref_f, ref = signal.welch(
                 arr[rows], fs, "hann", nperseg=nper, noverlap=nper - nper // 2, detrend=False
             )
-            assert np.array_equal(freq, ref_f)
-            assert np.max(np.abs(p - ref) / ref) < 1e-14
-            # the numpy form: the mean over segments of |X|^2, scaled, doubled inside
-            win = np.hanning(nper + 1)[:-1]
-            seg = np.lib.stride_tricks.sliding_window_view(arr[rows], nper, axis=1)
-            spectra = sfft.rfft(seg[:, :: nper // 2] * win, axis=2)
-            old = np.mean(np.abs(spectra) ** 2, axis=1) / (fs * float(win @ win))
-            old[:, 1 : (None if nper % 2 else -1)] *= 2.0
-            assert np.array_equal(p, old)
-        assert np.mean(px[:, 1:-1]) == pytest.approx(2 * sigma**2 / fs, rel=0.05)
+            above = np.flatnonzero(ref_f >= top * f_bp[rows[0]])
+            kept = ref_f.size if top <= 0 or not above.size else int(above[0]) + 1
+            assert kept < ref_f.size or top <= 0 or nper < 18
+            assert np.array_equal(freq, ref_f[:kept])
+            assert np.max(np.abs(p - ref[:, :kept]) / ref[:, :kept]) < 1e-13
+            below = (fs / nper) * ref[:, :-1].sum(axis=1)
+            assert np.max(np.abs(power - below) / below) < 1e-13
+        if nper == 488:
+            assert np.mean(densities[0][:, 1:]) == pytest.approx(2 * sigma**2 / fs, rel=0.05)
+    # the same bits wherever the rows lie in memory (vectorised sums must not depend on it)
+    for shift in (1, 3):
+        moved = [np.empty(a.size + shift)[shift:].reshape(a.shape) for a in (x, y)]
+        for a, m in zip((x, y), moved, strict=True):
+            m[...] = a
+        again = welch_rows(tuple(moved), fs, f_bp, 4, top)
+        for (_, _, dens, pows), (_, _, dens2, pows2) in zip(groups, again, strict=True):
+            assert all(
+                np.array_equal(a, b) for a, b in zip(dens + pows, dens2 + pows2, strict=True)
+            )
 
 
 def test_band_means_are_band_mean():

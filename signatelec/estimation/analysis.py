@@ -58,8 +58,14 @@ class TraceAnalysis:
     ``coefficients[k - 1]`` is the complex amplitude c_k of harmonic k, the trace being
     ``level + drift t + Re(sum_k c_k exp(2 pi i k f_bp t))`` (t from the middle of the trace);
     ``noise_density[k - 1]``
-    the one-sided density (ohm^2/Hz) of the residual around k f_bp; ``statistics`` the
-    whole-trace statistics of :func:`_row_statistics`.
+    the one-sided density (ohm^2/Hz) of the residual around k f_bp; ``psd`` and
+    ``residual_psd`` the Welch densities of the detrended trace and of the residual at
+    ``psd_freq_hz``, from 0 Hz to the first bin at or above (2 K + 1) f_bp for K harmonics
+    (above every band the features read, the highest [K + 1/2, 2 K + 1/2) f_bp; the whole
+    one-sided grid when that lies beyond it), and
+    ``residual_power_ohm2`` the residual's power by the same density over its whole grid less
+    the last bin (df times their sum); ``statistics`` the whole-trace statistics of
+    :func:`_row_statistics`.
     """
 
     sample_rate_hz: float
@@ -78,6 +84,7 @@ class TraceAnalysis:
     psd_freq_hz: np.ndarray
     psd: np.ndarray
     residual_psd: np.ndarray
+    residual_power_ohm2: float
     n_fitted: int
     statistics: dict
 
@@ -441,12 +448,17 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
         n_fitted[idx] = len(ks)
     detrended = _detrend(x, level, slope, tc)
     psd_f, psd, residual_psd = [None] * rows, [None] * rows, [None] * rows
+    residual_power = np.empty(rows)
     noise_density = np.empty((rows, n_harmonics))
     half = np.arange(1, n_harmonics + 1) - 0.5  # the band of harmonic k: (k -+ 0.5) f_bp
-    for idx, freq, (p, p_res) in welch_rows((detrended, residual), fs, f_bp, passes_per_segment):
+    top = 2 * n_harmonics + 1  # f_bp: above the features' highest band (TraceAnalysis)
+    for idx, freq, (p, p_res), (_, power) in welch_rows(
+        (detrended, residual), fs, f_bp, passes_per_segment, top
+    ):
         lo, hi = half * f_bp[idx, None], (half + 1.0) * f_bp[idx, None]
         start = np.arange(len(idx) + 1) * freq.size  # the rows share one grid
         noise_density[idx] = band_means(np.tile(freq, len(idx)), p_res.ravel(), start, lo, hi)
+        residual_power[idx] = power
         for i, w in enumerate(idx):
             psd_f[w], psd[w], residual_psd[w] = freq, p[i], p_res[i]
     for w, j in np.argwhere(np.isnan(noise_density)):  # bands without a bin
@@ -475,6 +487,7 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
                 psd_freq_hz=psd_f[w],
                 psd=psd[w],
                 residual_psd=residual_psd[w],
+                residual_power_ohm2=float(residual_power[w]),
                 n_fitted=int(n_fitted[w]),
                 statistics=stats[w],
             )

@@ -164,6 +164,7 @@ class _Batch:
         self.freq = np.concatenate([x.psd_freq_hz for x in a])
         self.psd = np.concatenate([x.psd for x in a])
         self.residual_psd = np.concatenate([x.residual_psd for x in a])
+        self.residual_power = column("residual_power_ohm2")
         self.amplitude = debiased_amplitudes(self)
         self.power = np.add.reduce(self.amplitude**2, axis=1)
 
@@ -365,10 +366,8 @@ def noise_features(b: _Batch) -> list[np.ndarray]:
     s = b.scale
     rms, white = st["residual_std"], st["residual_white"]
     fb = b.ball_pass_hz
-    f_last = b.freq[b.start[1:] - 1]
-    total, sub = b.band_powers(
-        b.residual_psd, np.zeros((len(s), 2)), np.stack([f_last + 1.0, 0.5 * fb], axis=1)
-    ).T
+    total = b.residual_power
+    sub = b.band_powers(b.residual_psd, np.zeros((len(s), 1)), 0.5 * fb[:, None])[:, 0]
     dens = np.add.reduce(b.noise_density, axis=1) / b.n_harmonics
     var = st["residual_var"]
     kurt = np.divide(st["residual_m4"], _squares(var), out=np.full_like(var, 3.0), where=var > 0)

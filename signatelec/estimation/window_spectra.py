@@ -2,10 +2,12 @@
 
 :func:`~signatelec.estimation.analysis.analyse_windows` transforms every window of a block
 twice over (the padded search spectrum, then the Welch segments of the detrended trace and of
-the residual); the transforms are most of its time. Here the rows go to pocketfft in batches
-whose inputs are written by compiled passes into buffers kept for the next block, and what is
-read from the spectra (the power at the search's bins, the mean over segments) is formed in
-compiled passes: the same numbers as the numpy forms, bit for bit.
+the residual); the transforms are most of its time. The search's rows go to pocketfft in
+batches written by a compiled pass into a buffer kept for the next block, and the power at
+the search's bins is read in a compiled pass (the numbers of the numpy forms, bit for bit).
+The Welch densities are formed by a compiled DFT of each segment at the bins the features
+read (:func:`_segment_power`), with the total power from Parseval's sum: scipy's estimate at
+those bins to round-off, at a cost that does not depend on the segment length's factors.
 """
 
 from __future__ import annotations
@@ -20,12 +22,6 @@ from scipy import fft as sfft
 
 from signatelec.measurement.ripple import PAD, hann
 
-#: Bytes of windowed Welch segments transformed at once: a block of windows is transformed in
-#: pieces written into a buffer kept for the next block (:func:`_segment_buffer`); fresh
-#: arrays for all the segments of 10 windows at once cost ~2x the same in pieces of 256 kB
-#: (their pages faulted in on every block), a kept buffer of 1 MB ~5 % less than 256 kB
-#: pieces (measured, pocketfft through scipy 1.17).
-_TRANSFORM_BYTES = 1 << 20
 #: Rows of the zero-padded search spectrum (:func:`find_ball_pass`) transformed in one call.
 #: pocketfft vectorises a transform over rows (SIMD lanes across rows, the same operations
 #: per row, the same numbers): at 40000 points ~95 us a row from 5 rows at once up to 32,
@@ -35,13 +31,6 @@ _PAD_ROWS = 16
 _PAD_MIN_ROWS = 5
 #: Largest padded buffer kept for the next call (a long trace's is not held).
 _SCRATCH_BYTES = 8 << 20
-
-
-def _pieces(rows: int, row_bytes: int) -> list[slice]:
-    """Slices of ``rows`` rows of ``row_bytes`` each whose transforms fit
-    :data:`_TRANSFORM_BYTES`."""
-    step = max(1, _TRANSFORM_BYTES // max(row_bytes, 1))
-    return [slice(i, i + step) for i in range(0, rows, step)]
 
 
 def take_rows(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
@@ -195,81 +184,138 @@ def _periodic_hann(n: int) -> np.ndarray:
     return window
 
 
-@njit(cache=True, error_model="numpy")
-def _mean_square(a: np.ndarray, scale: float, out: np.ndarray) -> None:
-    """out[r] = mean over segments of a[r] ** 2 (a: rows, segments, bins) divided by ``scale``,
-    in one pass without the numpy form's two temporaries. The segments are added one after the
-    other, as numpy's mean over a non-contiguous axis adds them: the same numbers as
-    ``np.mean(a ** 2, axis=1) / scale``."""
-    rows, segs, bins = a.shape
+@functools.lru_cache(maxsize=8)
+def _dft_tables(nper: int, bins: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """cos and sin of 2 pi k j / nper for each bin k of ``bins`` (rows) and j in [0, nper // 2]
+    (the product k j reduced mod nper before it is scaled, so the angle keeps its digits),
+    read-only, kept for the next block of the same segment length."""
+    k = np.asarray(bins, dtype=np.int64)[:, None]
+    j = np.arange(nper // 2 + 1, dtype=np.int64)[None, :]
+    angle = (2.0 * np.pi / nper) * ((k * j) % nper)
+    tables = np.cos(angle), np.sin(angle)
+    for a in tables:
+        a.flags.writeable = False
+    return tables
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"}, error_model="numpy")
+def _segment_power(x, step, window, cos_t, sin_t, power, squares) -> None:
+    """Per row r of ``x``, over its segments of nper = window.size samples every ``step``:
+    power[r, i] = the sum over segments of |X_k|^2, X the DFT of the windowed segment y and k
+    the bin of row i of the tables (:func:`_dft_tables`); squares[r] = the sum over segments
+    of sum_j y_j^2 (Parseval's side).
+
+    A real segment's DFT from its folded halves: Re X_k = sum_j (y_j + y_{nper-j}) cos and
+    Im X_k = -sum_j (y_j - y_{nper-j}) sin over j <= nper / 2, half the products of the DFT's
+    definition, and only the bins asked for: ~40 of 245 for the features' bands. Its cost
+    grows with nper alone, where pocketfft's grows with nper's largest prime factor (a segment
+    of 538 = 2 x 269 samples cost 10x one of 480, measured). Four bins share each pass over
+    the folded segment."""
+    rows, n = x.shape
+    nper = window.size
+    half = nper // 2
+    pairs = half if nper % 2 else half - 1  # j in [1, pairs] pairs with nper - j
+    nb = cos_t.shape[0]
+    segments = (n - nper) // step + 1
+    even = np.zeros(half + 1)
+    odd = np.zeros(half + 1)
     for r in range(rows):
-        for j in range(bins):
-            v = a[r, 0, j]
-            out[r, j] = v * v
-        for k in range(1, segs):
-            for j in range(bins):
-                v = a[r, k, j]
-                out[r, j] += v * v
-        for j in range(bins):
-            out[r, j] = out[r, j] / segs / scale
+        power[r, :] = 0.0
+        total = 0.0
+        for s in range(segments):
+            b = s * step
+            even[0] = x[r, b] * window[0]
+            for j in range(1, pairs + 1):
+                lo = x[r, b + j] * window[j]
+                hi = x[r, b + nper - j] * window[nper - j]
+                even[j] = lo + hi
+                odd[j] = lo - hi
+            if nper % 2 == 0 and nper > 1:
+                even[half] = x[r, b + half] * window[half]
+            # sum_j y_j^2 = y_0^2 (+ y_half^2) + sum over pairs of (even^2 + odd^2) / 2, in a
+            # loop apart that only reads: summed in the loop that writes the halves, its last
+            # bits changed from one call to the next with the rows' addresses (measured; a
+            # run-time overlap check choosing the vectorised loop or not, most likely)
+            sq = 0.0
+            for j in range(1, pairs + 1):
+                sq += even[j] * even[j] + odd[j] * odd[j]
+            sq = 0.5 * sq + even[0] * even[0]
+            if nper % 2 == 0 and nper > 1:
+                sq += even[half] * even[half]
+            total += sq
+            i = 0
+            while i + 4 <= nb:
+                c0 = c1 = c2 = c3 = s0 = s1 = s2 = s3 = 0.0
+                for j in range(half + 1):
+                    e, o = even[j], odd[j]
+                    c0 += e * cos_t[i, j]
+                    s0 += o * sin_t[i, j]
+                    c1 += e * cos_t[i + 1, j]
+                    s1 += o * sin_t[i + 1, j]
+                    c2 += e * cos_t[i + 2, j]
+                    s2 += o * sin_t[i + 2, j]
+                    c3 += e * cos_t[i + 3, j]
+                    s3 += o * sin_t[i + 3, j]
+                power[r, i] += c0 * c0 + s0 * s0
+                power[r, i + 1] += c1 * c1 + s1 * s1
+                power[r, i + 2] += c2 * c2 + s2 * s2
+                power[r, i + 3] += c3 * c3 + s3 * s3
+                i += 4
+            while i < nb:
+                c0 = s0 = 0.0
+                for j in range(half + 1):
+                    c0 += even[j] * cos_t[i, j]
+                    s0 += odd[j] * sin_t[i, j]
+                power[r, i] += c0 * c0 + s0 * s0
+                i += 1
+        squares[r] = total
 
 
-def _welch(xs: tuple, fs: float, nper: int) -> tuple[np.ndarray, list[np.ndarray]]:
+def _welch(xs: tuple, fs: float, nper: int, top_hz: float) -> tuple[np.ndarray, list, list]:
     """One-sided Welch density (Hann, half overlap) of each row of each array of ``xs`` (rows of
-    one length), segments of ``nper`` samples (:func:`welch_rows`: ``passes`` ball passes).
+    one length), segments of ``nper`` samples (:func:`welch_rows`), at its bins from 0 Hz up
+    to the first at or above ``top_hz`` (every bin when ``top_hz`` is not > 0 or lies beyond
+    the last); and each row's power below the last bin, df times the sum of the density over
+    every bin but the last (the density's integral over [0, f_last) as
+    :func:`~signatelec.estimation.analysis.band_power` reads it), from Parseval's sum.
 
-    The same estimate as ``scipy.signal.welch(..., detrend=False)``, with the segments
-    transformed in batches of rows (a 1 s trace at 50 kHz has ~200 of them).
+    ``scipy.signal.welch(..., detrend=False)``'s estimate at those bins, to round-off.
+    Returns (frequencies, [density per array], [power per array]).
     """
     step = max(nper // 2, 1)
     win = _periodic_hann(nper)
     scale = fs * float(win @ win)
+    df = fs / nper
     rows, n = xs[0].shape
     segments = (n - nper) // step + 1
-    pieces = _pieces(rows, segments * nper * 8)
-    buf = _segment_buffer(min(rows, pieces[0].stop), segments, nper)
-    out = []
+    freq = sfft.rfftfreq(nper, 1.0 / fs)
+    last = freq.size - 1
+    top = last if not top_hz > 0.0 else min(last, int(freq.searchsorted(top_hz)))
+    bins = tuple(range(top + 1)) + ((last,) if last > top else ())
+    cos_t, sin_t = _dft_tables(nper, bins)
+    doubled = np.array([0 < k and (k < last or nper % 2 == 1) for k in bins])
+    densities, powers = [], []
     for x in xs:
-        p = np.empty((rows, nper // 2 + 1))
-        for part in pieces:
-            k = len(range(rows)[part])
-            _windowed_segments(x[part], step, win, buf[:k])
-            _mean_square(np.abs(sfft.rfft(buf[:k], axis=2)), scale, p[part])
-        p[:, 1 : (None if nper % 2 else -1)] *= 2.0
-        out.append(p)
-    return sfft.rfftfreq(nper, 1.0 / fs), out
+        power, squares = np.empty((rows, len(bins))), np.empty(rows)
+        _segment_power(x, step, win, cos_t, sin_t, power, squares)
+        p = power / segments / scale
+        p[:, doubled] *= 2.0
+        whole = squares / segments * nper / scale  # the density summed over every bin
+        densities.append(p[:, : top + 1])
+        powers.append(df * (whole - p[:, -1]))
+    return freq[: top + 1], densities, powers
 
 
-@njit(cache=True, error_model="numpy")
-def _windowed_segments(x: np.ndarray, step: int, window: np.ndarray, out: np.ndarray) -> None:
-    """out[r, k] = x[r, k step : k step + nper] window (nper = window.size): the windowed
-    segments of each row, written in one pass into a buffer kept for the next block."""
-    nper = window.size
-    for r in range(out.shape[0]):
-        for k in range(out.shape[1]):
-            for j in range(nper):
-                out[r, k, j] = x[r, k * step + j] * window[j]
-
-
-def _segment_buffer(rows: int, segments: int, nper: int) -> np.ndarray:
-    """A (rows, segments, nper) array for :func:`_windowed_segments`, kept per thread for the
-    next block of the same shape when at most :data:`_SCRATCH_BYTES` (as
-    :func:`_padded_buffer`)."""
-    buf = getattr(_scratch, "segments", None)
-    if buf is None or buf.shape != (rows, segments, nper):
-        buf = np.empty((rows, segments, nper))
-        if buf.nbytes <= _SCRATCH_BYTES:
-            _scratch.segments = buf
-    return buf
-
-
-def welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int) -> list[tuple]:
+def welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int, top: float) -> list[tuple]:
     """The Welch densities of the rows of each array of ``xs`` by :func:`_welch`, rows of one
-    segment length together: (rows, freq, [density of those rows of each array]) per length."""
+    segment length together, up to ``top`` f_bp (the rows' largest): (rows, freq, [density
+    of those rows of each array], [their power below the last bin]) per length."""
     n = xs[0].shape[1]
     nper = np.array([max(1, min(int(round(passes * fs / f)) if f > 0 else n, n)) for f in f_bp])
     groups = []
     for length in np.unique(nper):
         rows = np.flatnonzero(nper == length)
-        groups.append((rows, *_welch(tuple(take_rows(x, rows) for x in xs), fs, int(length))))
+        top_hz = top * float(np.max(f_bp[rows]))
+        parts = tuple(take_rows(x, rows) for x in xs)
+        groups.append((rows, *_welch(parts, fs, int(length), top_hz)))
     return groups
