@@ -557,7 +557,7 @@ def monitor_trace(
         follow=s.follow,
         idle_s=s.follow_idle_s,
     )
-    # one core's work: the BLAS library's idle threads would spin beside it (~0.4 s of another
+    # one core's work: the BLAS library's idle threads would spin beside it (~0.6 s of another
     # core's CPU per minute of a 55 kHz trace, measured; none at 50 kHz)
     with threadpool_limits(limits=1, user_api="blas"):
         try:

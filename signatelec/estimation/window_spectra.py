@@ -184,17 +184,31 @@ def _periodic_hann(n: int) -> np.ndarray:
     return window
 
 
-@functools.lru_cache(maxsize=8)
+#: Most bins the compiled DFT forms (:func:`_segment_power`, ~nb nper / 2 products a segment):
+#: a group of windows needing more, or whose whole grid holds more, goes to pocketfft's
+#: transform of the whole segment (~nper log nper, several times more at lengths with a large
+#: prime factor). The features' bins at the defaults: (2 K + 1) x 4 + 2 = 38.
+_DFT_MAX_BINS = 64
+_tables: dict = {}
+
+
 def _dft_tables(nper: int, bins: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     """cos and sin of 2 pi k j / nper for each bin k of ``bins`` (rows) and j in [0, nper // 2]
     (the product k j reduced mod nper before it is scaled, so the angle keeps its digits),
-    read-only, kept for the next block of the same segment length."""
+    read-only; the last few of at most :data:`_SCRATCH_BYTES` each kept for the next block."""
+    key = (nper, bins)
+    if key in _tables:
+        return _tables[key]
     k = np.asarray(bins, dtype=np.int64)[:, None]
     j = np.arange(nper // 2 + 1, dtype=np.int64)[None, :]
     angle = (2.0 * np.pi / nper) * ((k * j) % nper)
     tables = np.cos(angle), np.sin(angle)
-    for a in tables:
-        a.flags.writeable = False
+    for t in tables:
+        t.flags.writeable = False
+    if 2 * tables[0].nbytes <= _SCRATCH_BYTES:
+        if len(_tables) >= 8:
+            _tables.pop(next(iter(_tables)))
+        _tables[key] = tables
     return tables
 
 
@@ -207,10 +221,13 @@ def _segment_power(x, step, window, cos_t, sin_t, power, squares) -> None:
 
     A real segment's DFT from its folded halves: Re X_k = sum_j (y_j + y_{nper-j}) cos and
     Im X_k = -sum_j (y_j - y_{nper-j}) sin over j <= nper / 2, half the products of the DFT's
-    definition, and only the bins asked for: ~40 of 245 for the features' bands. Its cost
-    grows with nper alone, where pocketfft's grows with nper's largest prime factor (a segment
-    of 538 = 2 x 269 samples cost 10x one of 480, measured). Four bins share each pass over
-    the folded segment."""
+    definition, and only the bins asked for. Its cost grows with nper alone, where pocketfft's
+    grows with nper's largest prime factor (a segment of 538 = 2 x 269 samples cost 10x one
+    of 480, measured). Each bin is formed by the same loop whatever the other bins are, so a
+    row's numbers do not depend on the rows analysed with it. Its round-off is that of a sum
+    of nper / 2 products, ~1e-16 of the segment's energy: a bin far below the others (a noise-
+    free ripple's) carries it relative to itself, more than pocketfft's (measured: 8e-9 of
+    ``psd_high_rel`` on a noise-free trace; 1e-15 at a 0.05 % noise floor)."""
     rows, n = x.shape
     nper = window.size
     half = nper // 2
@@ -243,44 +260,28 @@ def _segment_power(x, step, window, cos_t, sin_t, power, squares) -> None:
             if nper % 2 == 0 and nper > 1:
                 sq += even[half] * even[half]
             total += sq
-            i = 0
-            while i + 4 <= nb:
-                c0 = c1 = c2 = c3 = s0 = s1 = s2 = s3 = 0.0
+            for i in range(nb):
+                re = im = 0.0
                 for j in range(half + 1):
-                    e, o = even[j], odd[j]
-                    c0 += e * cos_t[i, j]
-                    s0 += o * sin_t[i, j]
-                    c1 += e * cos_t[i + 1, j]
-                    s1 += o * sin_t[i + 1, j]
-                    c2 += e * cos_t[i + 2, j]
-                    s2 += o * sin_t[i + 2, j]
-                    c3 += e * cos_t[i + 3, j]
-                    s3 += o * sin_t[i + 3, j]
-                power[r, i] += c0 * c0 + s0 * s0
-                power[r, i + 1] += c1 * c1 + s1 * s1
-                power[r, i + 2] += c2 * c2 + s2 * s2
-                power[r, i + 3] += c3 * c3 + s3 * s3
-                i += 4
-            while i < nb:
-                c0 = s0 = 0.0
-                for j in range(half + 1):
-                    c0 += even[j] * cos_t[i, j]
-                    s0 += odd[j] * sin_t[i, j]
-                power[r, i] += c0 * c0 + s0 * s0
-                i += 1
+                    re += even[j] * cos_t[i, j]
+                    im += odd[j] * sin_t[i, j]
+                power[r, i] += re * re + im * im
         squares[r] = total
 
 
-def _welch(xs: tuple, fs: float, nper: int, top_hz: float) -> tuple[np.ndarray, list, list]:
+def _welch(xs: tuple, fs: float, nper: int, top_hz: float | None, dft: bool) -> tuple:
     """One-sided Welch density (Hann, half overlap) of each row of each array of ``xs`` (rows of
     one length), segments of ``nper`` samples (:func:`welch_rows`), at its bins from 0 Hz up
-    to the first at or above ``top_hz`` (every bin when ``top_hz`` is not > 0 or lies beyond
-    the last); and each row's power below the last bin, df times the sum of the density over
-    every bin but the last (the density's integral over [0, f_last) as
-    :func:`~signatelec.estimation.analysis.band_power` reads it), from Parseval's sum.
+    to the first at or above ``top_hz`` (every bin when it is None or beyond the last; bin 0
+    when it is not > 0); and each row's power below the last bin, df times the sum of the
+    density over every bin but the last (the density's integral over [0, f_last) as
+    :func:`~signatelec.estimation.analysis.band_power` reads it).
 
-    ``scipy.signal.welch(..., detrend=False)``'s estimate at those bins, to round-off.
-    Returns (frequencies, [density per array], [power per array]).
+    ``dft``: the compiled DFT at those bins (:func:`_segment_power`), the power below the last
+    bin from Parseval's sum less the last bin when the grid is cut, else the bins' sum (a
+    Nyquist line holding most of the power would cancel); otherwise pocketfft's transform of
+    every segment. ``scipy.signal.welch(..., detrend=False)``'s estimate at those bins, to
+    round-off. Returns (frequencies, [density per array], [power per array]).
     """
     step = max(nper // 2, 1)
     win = _periodic_hann(nper)
@@ -290,32 +291,47 @@ def _welch(xs: tuple, fs: float, nper: int, top_hz: float) -> tuple[np.ndarray, 
     segments = (n - nper) // step + 1
     freq = sfft.rfftfreq(nper, 1.0 / fs)
     last = freq.size - 1
-    top = last if not top_hz > 0.0 else min(last, int(freq.searchsorted(top_hz)))
-    bins = tuple(range(top + 1)) + ((last,) if last > top else ())
-    cos_t, sin_t = _dft_tables(nper, bins)
+    top = last if top_hz is None else min(last, int(freq.searchsorted(max(top_hz, 0.0))))
+    bins = tuple(range(top + 1)) + ((last,) if last > top and dft else ())
+    if dft:
+        cos_t, sin_t = _dft_tables(nper, bins)
+    else:
+        bins = tuple(range(last + 1))
     doubled = np.array([0 < k and (k < last or nper % 2 == 1) for k in bins])
     densities, powers = [], []
     for x in xs:
-        power, squares = np.empty((rows, len(bins))), np.empty(rows)
-        _segment_power(x, step, win, cos_t, sin_t, power, squares)
+        if dft:
+            power, squares = np.empty((rows, len(bins))), np.empty(rows)
+            _segment_power(x, step, win, cos_t, sin_t, power, squares)
+        else:
+            seg = np.lib.stride_tricks.sliding_window_view(x, nper, axis=1)[:, ::step][:, :segments]
+            power = np.add.reduce(np.abs(sfft.rfft(seg * win, axis=2)) ** 2, axis=1)
         p = power / segments / scale
         p[:, doubled] *= 2.0
-        whole = squares / segments * nper / scale  # the density summed over every bin
+        if p.shape[1] < last + 1:  # the grid cut: Parseval's sum less the last bin
+            below = squares / segments * nper / scale - p[:, -1]
+        else:
+            below = np.add.reduce(p[:, :last], axis=1)
         densities.append(p[:, : top + 1])
-        powers.append(df * (whole - p[:, -1]))
+        powers.append(df * below)
     return freq[: top + 1], densities, powers
 
 
-def welch_rows(xs: tuple, fs: float, f_bp: np.ndarray, passes: int, top: float) -> list[tuple]:
+def welch_rows(xs: tuple, fs: float, f_bp, passes: int, top: float | None) -> list[tuple]:
     """The Welch densities of the rows of each array of ``xs`` by :func:`_welch`, rows of one
-    segment length together, up to ``top`` f_bp (the rows' largest): (rows, freq, [density
-    of those rows of each array], [their power below the last bin]) per length."""
+    segment length together, up to ``top`` f_bp (the rows' largest; None: every bin): (rows,
+    freq, [density of those rows of each array], [their power below the last bin]) per length.
+    The compiled DFT forms them when the bins asked for are few enough, decided by the segment
+    length, ``top`` and ``passes`` alone (not by the other rows, so a row's numbers are those
+    it gets alone)."""
     n = xs[0].shape[1]
     nper = np.array([max(1, min(int(round(passes * fs / f)) if f > 0 else n, n)) for f in f_bp])
+    few = top is not None and top * passes + 3 <= _DFT_MAX_BINS
     groups = []
     for length in np.unique(nper):
         rows = np.flatnonzero(nper == length)
-        top_hz = top * float(np.max(f_bp[rows]))
+        top_hz = None if top is None else top * float(np.max(f_bp[rows]))
+        dft = few or int(length) // 2 + 1 <= _DFT_MAX_BINS
         parts = tuple(take_rows(x, rows) for x in xs)
-        groups.append((rows, *_welch(parts, fs, int(length), top_hz)))
+        groups.append((rows, *_welch(parts, fs, int(length), top_hz, dft)))
     return groups
