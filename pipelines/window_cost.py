@@ -3,6 +3,7 @@
 Usage::
 
     python pipelines/window_cost.py [--report DIR] [--label NAME] [--speeds N] [--passes N]
+                                    [--redraw]
 
 The monitor analyses each 0.2 s window of a 50 kHz trace (``analyse_windows``, a block of 10
 windows at a time); its Welch segments span 4 ball passes, nper = round(4 fs / f_bp) samples,
@@ -17,7 +18,8 @@ reading come on top (docs/monitor, README "Throughput").
 The rows are appended to ``window_cost.parquet`` in the report directory (default
 ``docs/monitor``) under ``--label`` (default: the checked-out commit), replacing that label's
 earlier rows, so running it on two versions of the code (``PYTHONPATH=<other checkout>``) draws
-both in ``window_cost.png``; ``window_cost.md`` tabulates them.
+both in ``window_cost.png``; ``window_cost.md`` tabulates them. ``--redraw``: the figure and
+the table of the stored rows, nothing measured.
 """
 
 from __future__ import annotations
@@ -155,7 +157,12 @@ def main() -> None:
     parser.add_argument("--label", default=None)
     parser.add_argument("--speeds", type=int, default=41)
     parser.add_argument("--passes", type=int, default=5)
+    parser.add_argument("--redraw", action="store_true")
     args = parser.parse_args()
+    store = args.report / "window_cost.parquet"
+    if args.redraw:
+        report(pd.read_parquet(store), args.report)
+        return
     import signatelec
 
     label = (
@@ -171,14 +178,23 @@ def main() -> None:
     speeds = np.linspace(250.0, 750.0, args.speeds)
     table = measure(speeds, args.passes).assign(label=label, host=host())
     args.report.mkdir(parents=True, exist_ok=True)
-    store = args.report / "window_cost.parquet"
     if store.exists():
         table = pd.concat([pd.read_parquet(store).query("label != @label"), table])
     tmp = store.with_suffix(".tmp")
     table.to_parquet(tmp, index=False)
     tmp.replace(store)
-    draw(table, args.report / "window_cost.png")
-    summary = table.groupby(["label", "host"], sort=False).analysis_us_per_window.describe()
+    report(table, args.report)
+
+
+def report(table: pd.DataFrame, folder: Path) -> None:
+    """``window_cost.png`` and ``window_cost.md`` of the rows of every label."""
+    draw(table, folder / "window_cost.png")
+    summary = (
+        table.groupby(["label", "host"], sort=False)
+        .analysis_us_per_window.describe()
+        .reset_index()
+        .rename(columns={"min": "min_us", "50%": "median_us", "max": "max_us", "count": "speeds"})
+    )
     lines = [
         "# The window analysis's CPU cost across speeds",
         "",
@@ -187,14 +203,14 @@ def main() -> None:
         "",
         "![cost](window_cost.png)",
         "",
-        *markdown(summary.reset_index()[["label", "host", "count", "min", "50%", "max"]]),
+        *markdown(summary[["label", "host", "speeds", "min_us", "median_us", "max_us"]]),
         "",
         *markdown(table[["label", *table.columns.drop(["label", "host"])]]),
         "",
     ]
-    tmp = args.report / "window_cost.md.tmp"
+    tmp = folder / "window_cost.md.tmp"
     tmp.write_text("\n".join(lines))
-    tmp.replace(args.report / "window_cost.md")
+    tmp.replace(folder / "window_cost.md")
 
 
 if __name__ == "__main__":

@@ -61,8 +61,9 @@ class TraceAnalysis:
     the one-sided density (ohm^2/Hz) of the residual around k f_bp; ``psd`` and
     ``residual_psd`` the Welch densities of the detrended trace and of the residual at
     ``psd_freq_hz``, from 0 Hz to the first bin at or above (2 K + 1) f_bp for K harmonics
-    (above every band the features read, the highest [K + 1/2, 2 K + 1/2) f_bp; the whole
-    one-sided grid when that lies beyond it), and
+    (above every band the features read, the highest [K + 1/2, 2 K + 1/2) f_bp; f_bp the
+    largest of the rows of its segment length analysed with it, so a grid may hold a bin more;
+    the whole one-sided grid when that lies beyond it; bin 0 alone when f_bp <= 0), and
     ``residual_power_ohm2`` the residual's power by the same density over its whole grid less
     the last bin (df times their sum); ``statistics`` the whole-trace statistics of
     :func:`_row_statistics`.
