@@ -189,26 +189,29 @@ def _periodic_hann(n: int) -> np.ndarray:
 #: transform of the whole segment (~nper log nper, several times more at lengths with a large
 #: prime factor). The features' bins at the defaults: (2 K + 1) x 4 + 2 = 38.
 _DFT_MAX_BINS = 64
-_tables: dict = {}
 
 
 def _dft_tables(nper: int, bins: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     """cos and sin of 2 pi k j / nper for each bin k of ``bins`` (rows) and j in [0, nper // 2]
     (the product k j reduced mod nper before it is scaled, so the angle keeps its digits),
-    read-only; the last few of at most :data:`_SCRATCH_BYTES` each kept for the next block."""
-    key = (nper, bins)
-    if key in _tables:
-        return _tables[key]
+    read-only; tables of at most :data:`_SCRATCH_BYTES` kept for the next block."""
+    if 2 * 8 * len(bins) * (nper // 2 + 1) <= _SCRATCH_BYTES:
+        return _kept_tables(nper, bins)
+    return _tables_of(nper, bins)
+
+
+@functools.lru_cache(maxsize=8)
+def _kept_tables(nper: int, bins: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    return _tables_of(nper, bins)
+
+
+def _tables_of(nper: int, bins: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     k = np.asarray(bins, dtype=np.int64)[:, None]
     j = np.arange(nper // 2 + 1, dtype=np.int64)[None, :]
     angle = (2.0 * np.pi / nper) * ((k * j) % nper)
     tables = np.cos(angle), np.sin(angle)
     for t in tables:
         t.flags.writeable = False
-    if 2 * tables[0].nbytes <= _SCRATCH_BYTES:
-        if len(_tables) >= 8:
-            _tables.pop(next(iter(_tables)))
-        _tables[key] = tables
     return tables
 
 
