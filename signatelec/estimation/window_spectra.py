@@ -295,8 +295,8 @@ def _welch(xs: tuple, fs: float, nper: int, top_hz: float | None, dft: bool) -> 
     freq = sfft.rfftfreq(nper, 1.0 / fs)
     last = freq.size - 1
     top = last if top_hz is None else min(last, int(freq.searchsorted(max(top_hz, 0.0))))
-    bins = tuple(range(top + 1)) + ((last,) if last > top and dft else ())
     if dft:
+        bins = tuple(range(top + 1)) + ((last,) if last > top else ())
         cos_t, sin_t = _dft_tables(nper, bins)
     else:
         bins = tuple(range(last + 1))
