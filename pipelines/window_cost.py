@@ -51,21 +51,6 @@ def largest_prime_factor(n: int) -> int:
     return max(largest, n)
 
 
-def host() -> str:
-    """The CPU's model name, and whether it has AVX-512 (pocketfft and the compiled loops use
-    it where it is)."""
-    try:
-        info = Path("/proc/cpuinfo").read_text()
-    except OSError:
-        import platform
-
-        return platform.processor() or "unknown CPU"
-    name = next(
-        (line.split(":", 1)[1].strip() for line in info.splitlines() if "model name" in line), "?"
-    )
-    return f"{name}, {'with' if ' avx512f' in info else 'without'} AVX-512"
-
-
 def trace(omega_rad_s: float, rng: np.random.Generator) -> np.ndarray:
     """The steady resistance at ``omega_rad_s``, 50 kHz, with 0.2 % white noise: the blocks'
     samples end to end."""
@@ -164,6 +149,7 @@ def main() -> None:
         report(pd.read_parquet(store), args.report)
         return
     import signatelec
+    from signatelec.studies.bench import host_in_words
 
     label = (
         args.label
@@ -176,7 +162,7 @@ def main() -> None:
     )
     print(f"window analysis cost of {signatelec.__file__} ({label})")
     speeds = np.linspace(250.0, 750.0, args.speeds)
-    table = measure(speeds, args.passes).assign(label=label, host=host())
+    table = measure(speeds, args.passes).assign(label=label, host=host_in_words())
     args.report.mkdir(parents=True, exist_ok=True)
     if store.exists():
         table = pd.concat([pd.read_parquet(store).query("label != @label"), table])

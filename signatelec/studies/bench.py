@@ -43,6 +43,13 @@ def machine() -> dict:
     }
 
 
+def host_in_words() -> str:
+    """The host of :func:`machine` in words: processor, AVX-512, CPUs."""
+    m = machine()
+    avx = {True: "with AVX-512", False: "without AVX-512", None: "AVX-512 unknown"}[m["avx512"]]
+    return f"{m['processor']}, {avx}, {m['cpus']} CPUs"
+
+
 def _cases() -> dict[str, dict]:
     """The seed scene; every option that changes the kernel or the outputs (config.options.OPTIONS)
     at each of its other values, one at a time; then every physics option at its null model."""

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from signatelec.config.constraints import HEALTHY
+from signatelec.studies.bench import host_in_words
 
 #: Sampling rate of the throughput records (the acceptance condition's).
 THROUGHPUT_RATE_HZ = 50000.0
@@ -110,15 +111,6 @@ def _conformal_quantile(need: np.ndarray, nominal: float) -> float | None:
     if not need.size:
         return None
     return float(need[min(need.size, math.ceil(nominal * (need.size + 1))) - 1])
-
-
-def _host() -> str:
-    """The host in words (:func:`signatelec.studies.bench.machine`)."""
-    from signatelec.studies.bench import machine
-
-    m = machine()
-    avx = {True: "with AVX-512", False: "without AVX-512", None: "AVX-512 unknown"}[m["avx512"]]
-    return f"{m['processor']}, {avx}, {m['cpus']} CPUs"
 
 
 def healthy_answered(truth: pd.DataFrame) -> pd.DataFrame:
@@ -572,7 +564,7 @@ def acceptance_report(truth, changes, info, throughput, elapsed_s) -> str:
         "",
         "## Throughput and memory (synthetic 50 kHz records, one process each)",
         "",
-        f"Host: {_host()}. The figures scale with the host's speed per core: the same code "
+        f"Host: {host_in_words()}. The figures scale with the host's speed per core: the same code "
         "ran 1.6-2x slower on two other hosts of the kind (`signatelec bench --case seed`: "
         "0.71 us per DEM step on an AMD EPYC without AVX-512, 0.91 on an Intel Xeon at "
         "2.3 GHz, against 0.44 on the host of docs/bench).",
