@@ -314,6 +314,33 @@ def test_follow_a_growing_csv(model_file, tiles, tmp_path):
     assert len(windows) == 10 and (windows["status"] == "ok").all()
 
 
+def test_standard_input_gives_the_file_s_answer(model_file, tiles, tmp_path):
+    """``monitor -`` on CSV piped to standard input writes the windows and stretches of the
+    same CSV read as a file."""
+    import subprocess
+    import sys
+
+    t, r, _ = _record(tiles, [("low", 1.0), ("high", 1.0)], seed=7)
+    path = _write(tmp_path / "rec.csv", t, r)
+    common = ["--omega", "500", "--model", str(model_file), "--quiet"]
+    assert run_main(["monitor", str(path), "--out", str(tmp_path / "file"), *common]) == 0
+    proc = subprocess.run(
+        [sys.executable, "-c", "from signatelec.cli import main; main()", "monitor", "-",
+         "--out", str(tmp_path / "pipe"), *common],
+        input=path.read_bytes(), capture_output=True, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    for name in ("file", "pipe"):
+        assert (tmp_path / name / "windows.parquet").exists()
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "pipe" / "windows.parquet"),
+        pd.read_parquet(tmp_path / "file" / "windows.parquet"),
+    )
+    stretches = [json.loads((tmp_path / n / "summary.json").read_text())["stretches"]
+                 for n in ("file", "pipe")]  # fmt: skip
+    assert stretches[0] == stretches[1] and len(stretches[0]) == 2
+
+
 # --- bad input ----------------------------------------------------------------------------------
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import threading
 import time
 import warnings
 from types import SimpleNamespace
@@ -70,6 +71,62 @@ def test_follow_gives_up_on_a_file_without_header(tmp_path):
     with pytest.raises(TraceError, match="no header line"):
         list(read_chunks(path, follow=True, poll_s=0.02, idle_s=0.2))
     assert time.monotonic() - clock < 2.0
+
+
+class _Pipe:
+    """A pipe standing in for standard input, written by a thread in pieces with pauses."""
+
+    def __init__(self, pieces, pause_s):
+        read_fd, self.write_fd = os.pipe()
+        self.buffer = os.fdopen(read_fd, "rb")
+        self.sent = []  # (monotonic time, bytes so far) after each piece
+
+        def write():
+            done = 0
+            for piece in pieces:
+                os.write(self.write_fd, piece)
+                done += len(piece)
+                self.sent.append((time.monotonic(), done))
+                time.sleep(pause_s)
+            os.close(self.write_fd)
+
+        self.thread = threading.Thread(target=write)
+        self.thread.start()
+
+
+def test_standard_input_is_read_as_it_arrives(monkeypatch):
+    """``-`` reads CSV from standard input: every row once, in order, a line cut between two
+    writes joined; each piece parsed within STREAM_WAIT_S of its arrival although the stream
+    stays open (a stream read until a block filled held its rows until the writer closed, and
+    Ctrl-C then lost them)."""
+    t = np.arange(3000) / FS
+    r = 3e-3 + 1e-6 * np.arange(3000)
+    rows = "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, r, strict=True))
+    text = ("time_s,resistance_ohm\n" + rows).encode()
+    cuts = [0, 1000, 20011, 45017, len(text)]  # 20011, 45017: within lines
+    pipe = _Pipe([text[a:b] for a, b in zip(cuts, cuts[1:], strict=False)], pause_s=1.5)
+    monkeypatch.setattr("sys.stdin", pipe)
+    seen, got = [], []
+    for chunk in read_chunks("-"):
+        seen.append(time.monotonic())
+        got.append(chunk)
+    pipe.thread.join()
+    assert np.array_equal(np.concatenate([c.time_s for c in got]), t)
+    assert np.array_equal(np.concatenate([c.resistance_ohm for c in got]), r)
+    assert [c.first_row for c in got] == list(np.cumsum([0] + [c.time_s.size for c in got])[:-1])
+    # the rows of each piece (after the header's) came before the next piece was written
+    for (when, _), (after, _) in zip(pipe.sent[1:], pipe.sent[2:], strict=False):
+        assert any(when <= s < after for s in seen), (pipe.sent, seen)
+
+
+def test_standard_input_refusals(monkeypatch):
+    """An empty stream: one line naming standard input; --idle (which ends a file that
+    stopped growing) with ``-``: one line."""
+    monkeypatch.setattr("sys.stdin", _Pipe([], pause_s=0.0))
+    with pytest.raises(TraceError, match="^trace on standard input: .*no header line"):
+        list(read_chunks("-"))
+    message = _refused("-", omega_rad_s=OMEGA, follow=True, follow_idle_s=2.0)
+    assert message.startswith("--idle 2.0: ") and "standard input is read to its end" in message
 
 
 def test_hop_overlap_bounded(tmp_path):

@@ -257,7 +257,8 @@ def monitor(
 ):  # fmt: skip
     """Monitor a long resistance trace: per-window load state, stretches, changes and alarms.
 
-    Reads TRACE (CSV or Parquet) in chunks, so any length fits in memory; writes
+    Reads TRACE (CSV or Parquet) in chunks, so any length fits in memory, or CSV piped to
+    standard input when TRACE is - (read to its end; Ctrl-C ends and writes); writes
     DIR/windows.parquet (one row per window), DIR/summary.json (stretches, changes, alarms)
     and DIR/monitor.png.
     """
@@ -278,7 +279,7 @@ def monitor(
     from signatelec.estimation.monitor_report import COMMAND, summary_of, write_monitor
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.io import input_size_problem
-    from signatelec.measurement.stream import check_trace_file
+    from signatelec.measurement.stream import check_trace_file, is_standard_input
     from signatelec.measurement.traces import TraceError
 
     settings = MonitorSettings(
@@ -298,12 +299,13 @@ def monitor(
         ),
     )
     try:  # TraceError is a ValueError: the Python functions refuse with the same line
+        settings = settings.for_trace(trace_file)
         settings.check()
         check_settings(settings.hop, false_alarm_rate, load_threshold)
         check_healthy_prior(healthy_prior)
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    problem = input_size_problem(trace_file, 1 << 62)
+    problem = None if is_standard_input(trace_file) else input_size_problem(trace_file, 1 << 62)
     if problem:
         raise InputError(f"trace {trace_file!r}: {problem}")
     claim_output(out, COMMAND)
@@ -401,10 +403,13 @@ def _progress_printer(trace_file: str, every_s: float = 2.0):
         last[0] = now
         seconds = table.n_samples / table.sample_rate_hz
         share = f" ({table.n_samples / total:.0%})" if total else ""
-        speed = seconds / table.cpu_s if table.cpu_s > 0 else float("inf")
+        # (no rate before the first windows are estimated: a followed trace's are asked in
+        # batches)
+        rate = seconds / table.cpu_s if table.n_windows and table.cpu_s > 0 else None
+        speed = "" if rate is None else f", {rate:.0f}x real time"
         click.echo(
             f"signatelec: monitor: {seconds:.1f} s of trace read{share}, {table.n_windows} "
-            f"windows estimated, {speed:.0f}x real time",
+            f"windows estimated{speed}",
             err=True,
         )
 

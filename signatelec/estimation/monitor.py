@@ -1,7 +1,8 @@
 """Monitoring a long trace: the load state window by window, then stretches, changes and alarms.
 
 :func:`monitor_trace` reads a trace file in chunks (:func:`signatelec.measurement.stream.
-read_chunks`: memory bounded whatever the file's length, or a CSV file followed as it grows),
+read_chunks`: memory bounded whatever the file's length, a CSV file followed as it grows, or
+CSV piped to standard input, followed to its end),
 cuts it into windows of ``window_s`` every ``hop_s`` and estimates each as ``signatelec
 estimate`` does (:mod:`signatelec.estimation.estimate`: the same features, in-domain score and
 model): the windows of a block analysed together
@@ -35,7 +36,7 @@ import functools
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -49,7 +50,12 @@ from signatelec.estimation.health import CONDITION_EVERY_S, assess_window, defec
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
-from signatelec.measurement.stream import CHUNK_ROWS, read_chunks
+from signatelec.measurement.stream import (
+    CHUNK_ROWS,
+    is_standard_input,
+    read_chunks,
+    trace_label,
+)
 from signatelec.measurement.traces import (
     MIN_BALL_PASSES,
     N_HARMONICS,
@@ -117,6 +123,19 @@ class MonitorSettings:
     @property
     def hop(self) -> float:
         return self.window_s if self.hop_s is None else self.hop_s
+
+    def for_trace(self, path) -> MonitorSettings:
+        """The settings a trace at ``path`` is read with: standard input (``-``) is followed
+        to its end (TraceError for ``follow_idle_s``, which ends a file that stopped
+        growing)."""
+        if not is_standard_input(path):
+            return self
+        if self.follow_idle_s is not None:
+            raise TraceError(
+                f"--idle {self.follow_idle_s!r}: ends a file that stopped growing; standard "
+                "input is read to its end (or Ctrl-C)"
+            )
+        return replace(self, follow=True)
 
     def check(self) -> None:
         """TraceError (a ValueError: one line naming the option, its value and what is
@@ -540,13 +559,14 @@ def monitor_trace(
     settings: MonitorSettings,
     progress: Callable[[WindowTable], None] | None = None,
 ) -> WindowTable:
-    """The per-window estimates of a trace file (module docstring). Raises TraceError (one
-    line) when the trace or its first block is refused; Ctrl-C while following ends the reading
-    and keeps what was analysed (``interrupted``)."""
-    s = settings
+    """The per-window estimates of a trace file, or of CSV on standard input (``path`` "-"),
+    followed to its end (module docstring). Raises TraceError (one line) when the trace or its
+    first block is refused; Ctrl-C while following ends the reading and keeps what was analysed
+    (``interrupted``)."""
+    s = settings.for_trace(path)
     s.check()
     table = WindowTable()
-    source = f"trace {str(path)!r}"
+    source = trace_label(path)
     cutter = _Windows(s, model, table, source)
     chunks = read_chunks(
         path,

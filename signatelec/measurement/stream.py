@@ -29,6 +29,10 @@ checked and converted as :func:`signatelec.measurement.traces.read_trace` does
 reading lines appended to the file, polling every ``poll_s``; it ends when the file has not
 grown for ``idle_s`` (None: never, until the caller is interrupted). A last line without its
 line break is held back until it is complete.
+
+The path :data:`STANDARD_INPUT` (``-``) reads CSV from standard input (a live stream piped in
+from a logger): blocks of whole lines as they arrive (at most :data:`STREAM_WAIT_S` of wall
+time gathering one), until the end of the stream. A file named ``-`` is read as ``./-``.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -57,6 +62,21 @@ CHUNK_ROWS = 1 << 18
 GROUP_ROWS = 1 << 21
 PARQUET_SUFFIXES = (".parquet", ".pq")
 CSV_SUFFIXES = (".csv", ".txt", ".tsv")
+#: The path that reads CSV from standard input.
+STANDARD_INPUT = "-"
+#: Most wall time spent gathering one block of a stream before it is parsed: a slow stream's
+#: lines are analysed within about this of their arrival.
+STREAM_WAIT_S = 1.0
+
+
+def is_standard_input(path) -> bool:
+    """Whether ``path`` names standard input (:data:`STANDARD_INPUT`)."""
+    return isinstance(path, str) and path == STANDARD_INPUT
+
+
+def trace_label(path) -> str:
+    """How messages name a trace: ``trace 'PATH'``, or ``trace on standard input``."""
+    return "trace on standard input" if is_standard_input(path) else f"trace {str(path)!r}"
 
 
 @dataclass(frozen=True)
@@ -236,7 +256,7 @@ def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = 
     following a file being written, at most ``idle_s`` without growth)."""
     idle_since, size = time.monotonic(), None
     while True:
-        pos = fh.tell()
+        pos = fh.tell() if follow else 0  # (a stream cannot tell)
         line = fh.readline()
         if not line.endswith(b"\n"):
             if not follow:
@@ -265,14 +285,18 @@ def _open(path, where):
 
 
 def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
-    """(header line, separator) of a CSV file, its columns checked; ``fh`` left after the
-    header."""
+    """(header line, separator) of a CSV file or stream, its columns checked; ``fh`` left
+    after the header (the separator sniffed from the header and the lines after it, those of
+    a stream as far as they have arrived)."""
     import pandas as pd
 
     header = _header(fh, follow, poll_s, where, idle_s)
-    start = fh.tell()
-    sep = _separator(header + fh.read(4096))
-    fh.seek(start)
+    if fh.seekable():
+        start = fh.tell()
+        sep = _separator(header + fh.read(4096))
+        fh.seek(start)
+    else:
+        sep = _separator(header + fh.peek(4096)[:4096])
     try:
         columns = pd.read_csv(io.BytesIO(header), sep=sep, nrows=0).columns
     except (ValueError, pd.errors.ParserError) as exc:
@@ -283,56 +307,93 @@ def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
 
 
 def _csv_chunks(path, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[Chunk]:
+    if path is None:
+        yield from _csv_rows(sys.stdin.buffer, names, where, chunk_rows, False, poll_s, None)
+        return
+    with _open(path, where) as fh:
+        yield from _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s)
+
+
+def _block(fh, size: int) -> bytes:
+    """Up to ``size`` bytes of ``fh``; of a stream, those that arrive within
+    :data:`STREAM_WAIT_S` of the first (waiting for the first as long as it takes; b"" at the
+    stream's end)."""
+    if fh.seekable():
+        return fh.read(size)
+    parts, got, until = [], 0, math.inf
+    while got < size:
+        if parts and not _arrives(fh, until - time.monotonic()):
+            break
+        part = fh.read1(size - got)
+        if not part:
+            break
+        parts.append(part)
+        got += len(part)
+        until = min(until, time.monotonic() + STREAM_WAIT_S)
+    return b"".join(parts)
+
+
+def _arrives(fh, wait_s: float) -> bool:
+    """Whether ``fh`` has bytes to read within ``wait_s`` (select; True where a stream cannot
+    be waited on, whose read then blocks)."""
+    import select
+
+    try:
+        return bool(select.select([fh], [], [], max(wait_s, 0.0))[0])
+    except (OSError, ValueError):
+        return True
+
+
+def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[Chunk]:
     import pandas as pd
 
     block_bytes = 40 * chunk_rows  # ~40 bytes per line of three numbers
-    with _open(path, where) as fh:
-        header, sep = _csv_header(fh, names, where, follow, poll_s, idle_s)
-        row, pending, idle_since = 0, b"", time.monotonic()
-        while True:
-            data = fh.read(block_bytes)
-            if data:
-                idle_since = time.monotonic()
-                data = pending + data
-                cut = data.rfind(b"\n") + 1
-                pending, data = data[cut:], data[:cut]
-                if not data:
-                    continue
-            elif not follow:
-                data, pending = pending, b""
-                if not data.strip():
-                    return
-            else:
-                if idle_s is not None and time.monotonic() - idle_since > idle_s:
-                    return
-                time.sleep(poll_s)
+    header, sep = _csv_header(fh, names, where, follow, poll_s, idle_s)
+    row, pending, idle_since = 0, b"", time.monotonic()
+    while True:
+        data = _block(fh, block_bytes)
+        if data:
+            idle_since = time.monotonic()
+            data = pending + data
+            cut = data.rfind(b"\n") + 1
+            pending, data = data[cut:], data[:cut]
+            if not data:
                 continue
-            try:
-                df = pd.read_csv(
-                    io.BytesIO(header + data), sep=sep, comment="#", usecols=list(names)
-                )
-            except (ValueError, pd.errors.ParserError) as exc:
-                raise TraceError(
-                    f"{where}: cannot be read as csv near row {row} ({_first(exc)})"
-                ) from None
-            if len(df):
-                yield _chunk(df, names, where, row)
-                row += len(df)
+        elif not follow:
+            data, pending = pending, b""
+            if not data.strip():
+                return
+        else:
+            if idle_s is not None and time.monotonic() - idle_since > idle_s:
+                return
+            time.sleep(poll_s)
+            continue
+        try:
+            df = pd.read_csv(io.BytesIO(header + data), sep=sep, comment="#", usecols=list(names))
+        except (ValueError, pd.errors.ParserError) as exc:
+            raise TraceError(
+                f"{where}: cannot be read as csv near row {row} ({_first(exc)})"
+            ) from None
+        if len(df):
+            yield _chunk(df, names, where, row)
+            row += len(df)
 
 
 def _checked(path, time_column, resistance_column, speed_column, follow):
     """(path, where, names, format) of a trace file: refused if it is no file, of an unknown
-    format, or asks one column twice."""
+    format, or asks one column twice; (None, ..., "csv") for standard input."""
+    where = trace_label(path)
+    names = _columns(time_column, resistance_column, speed_column)
+    if len(set(names)) < len(names):
+        raise TraceError(f"{where}: the time, resistance and speed columns must differ ({names})")
+    if is_standard_input(path):
+        return None, where, names, "csv"
     p = Path(path)
-    where = f"trace {str(path)!r}"
     suffix = p.suffix.lower()
     if p.is_dir():
         raise TraceError(f"{where}: is a directory; give a .csv or .parquet file")
     if not p.is_file():
         raise TraceError(f"{where}: no such file")
-    names = _columns(time_column, resistance_column, speed_column)
-    if len(set(names)) < len(names):
-        raise TraceError(f"{where}: the time, resistance and speed columns must differ ({names})")
     if suffix in PARQUET_SUFFIXES:
         if follow:
             raise TraceError(
@@ -356,11 +417,12 @@ def check_trace_file(
     """Refuse (TraceError, the line :func:`read_chunks` would give) what can be told of a trace
     file without reading its rows: it exists, is readable, of a known format, its columns are
     there (a Parquet footer, a CSV header line; a file being followed may not have its header
-    yet, and is not waited for). Cheap: run it before anything long."""
+    yet, and is not waited for; standard input is not read). Cheap: run it before anything
+    long."""
     p, where, names, kind = _checked(path, time_column, resistance_column, speed_column, follow)
     if kind == "parquet":
         _parquet_file(p, names, where)
-    elif not follow:
+    elif not follow and p is not None:
         with _open(p, where) as fh:
             _csv_header(fh, names, where, False, 0.0, None)
 
