@@ -36,7 +36,7 @@ import functools
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -46,27 +46,22 @@ from signatelec.estimation.analysis import analyse_windows
 from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import trace_feature_names, window_features
-from signatelec.estimation.health import CONDITION_EVERY_S, assess_window, defect_explains
+from signatelec.estimation.health import assess_window, defect_explains
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
+from signatelec.estimation.monitor_settings import MonitorSettings, window_too_short
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import (
-    CHUNK_ROWS,
-    is_standard_input,
     read_chunks,
     trace_label,
 )
 from signatelec.measurement.traces import (
-    MIN_BALL_PASSES,
     N_HARMONICS,
     TraceError,
     prepare_trace,
 )
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
-#: Default window and hop, s: 200 ms windows are the longest of the training windows
-#: (docs/load_state: 88 % regime accuracy per window there, against 79 % at 50 ms).
-WINDOW_S = 0.2
 #: Trace per block of windows: repaired and screened together.
 BLOCK_S = 2.0
 #: Windows whose features the model is asked about in one batch (its compiled walk of the
@@ -93,97 +88,11 @@ KEPT_FEATURES = (
     "ball_pass_found_hz",
     "harmonic_snr",
 )
-#: Most windows a sample may belong to (--window / --hop): a block's windows are analysed
-#: together, so its memory grows with this ratio: peak 0.46, 0.62, 0.91 GB at 1, 20, 50 on a
-#: 100 kHz trace (8 s, 0.2 s windows); a hop of one sample at 20 kHz was killed for lack of memory.
-MAX_OVERLAP = 50
 #: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
 #: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
 TRACK_MIN_SNR = 25.0
 #: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
 TYPICAL_SLIP = -0.001
-
-
-@dataclass
-class MonitorSettings:
-    """What :func:`monitor_trace` does with a trace (see the module docstring)."""
-
-    omega_rad_s: float | None = None
-    speed_column: str | None = None
-    track_speed: bool = False
-    window_s: float = WINDOW_S
-    hop_s: float | None = None
-    time_column: str = "time_s"
-    resistance_column: str = "resistance_ohm"
-    follow: bool = False
-    follow_idle_s: float | None = None
-    chunk_rows: int = CHUNK_ROWS
-    condition_every_s: float | None = CONDITION_EVERY_S
-
-    @property
-    def hop(self) -> float:
-        return self.window_s if self.hop_s is None else self.hop_s
-
-    def for_trace(self, path) -> MonitorSettings:
-        """The settings a trace at ``path`` is read with: standard input (``-``) is followed
-        to its end (TraceError for ``follow_idle_s``, which ends a file that stopped
-        growing)."""
-        if not is_standard_input(path):
-            return self
-        if self.follow_idle_s is not None:
-            raise TraceError(
-                f"--idle {self.follow_idle_s!r}: ends a file that stopped growing; standard "
-                "input is read to its end (or Ctrl-C)"
-            )
-        return replace(self, follow=True)
-
-    def check(self) -> None:
-        """TraceError (a ValueError: one line naming the option, its value and what is
-        allowed) for settings no trace can be monitored with."""
-        s = self
-        if (s.omega_rad_s is None) == (s.speed_column is None):
-            raise TraceError("give the speed one way: --omega RAD_S or --speed-column NAME")
-        if s.track_speed and s.omega_rad_s is None:
-            raise TraceError("--track-speed starts from --omega RAD_S; give it")
-        if s.follow_idle_s is not None and not 0 < s.follow_idle_s < math.inf:
-            # an infinite idle time would follow for ever: that is --follow without --idle
-            raise TraceError(
-                f"--idle {s.follow_idle_s!r}: must be a finite duration > 0 s (without --idle, "
-                "--follow reads until Ctrl-C)"
-            )
-        if s.follow_idle_s is not None and not s.follow:
-            raise TraceError(f"--idle {s.follow_idle_s!r}: ends --follow; give --follow too")
-        for name, value in (("--window", s.window_s), ("--hop", s.hop)):
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise TraceError(f"{name} {value!r}: must be a duration > 0 s")
-        every = s.condition_every_s
-        if every is not None and not (
-            isinstance(every, int | float)
-            and not isinstance(every, bool)
-            and math.isfinite(every)
-            and every >= s.hop
-        ):
-            raise TraceError(
-                f"--condition-every {every!r}: must be a duration >= --hop ({s.hop:g} s), or 0 "
-                "for no condition (None in Python)"
-            )
-        if s.hop > s.window_s:
-            raise TraceError(
-                f"--hop {s.hop:g}: longer than --window {s.window_s:g}; samples would be skipped"
-            )
-        if s.window_s > MAX_OVERLAP * s.hop:
-            raise TraceError(
-                f"--hop {s.hop:g}: shorter than --window {s.window_s:g} / {MAX_OVERLAP}; each "
-                f"sample would be analysed more than {MAX_OVERLAP} times"
-            )
-        if s.omega_rad_s is not None and not (
-            isinstance(s.omega_rad_s, int | float)
-            and math.isfinite(s.omega_rad_s)
-            and s.omega_rad_s > 0
-        ):
-            raise TraceError(f"--omega {s.omega_rad_s!r}: must be a finite speed > 0 rad/s")
-        if s.omega_rad_s is not None and (short := _window_passes(s.window_s, s.omega_rad_s)):
-            raise TraceError(short)
 
 
 @dataclass
@@ -212,18 +121,6 @@ def _mean_speed(speed: np.ndarray) -> float:
     stderr) when all are."""
     given = speed[~np.isnan(speed)]
     return float(given.mean()) if given.size else math.nan
-
-
-def _window_passes(window_s: float, omega: float) -> str | None:
-    """Why a window of ``window_s`` at ``omega`` is too short for an estimate (fewer ball
-    passes than ``estimate`` needs), or None."""
-    passes = window_s * expected_ball_pass_hz(omega)
-    if passes >= MIN_BALL_PASSES:
-        return None
-    return (
-        f"--window {window_s:g}: {passes:.3g} ball passes at {omega:g} rad/s; a window needs at "
-        f"least {MIN_BALL_PASSES:g} (>= {window_s * MIN_BALL_PASSES / passes:.3g} s)"
-    )
 
 
 def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float | None):
@@ -528,7 +425,7 @@ class _Windows:
                 if not (math.isfinite(omega) and omega > 0):
                     row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
                     continue
-                if short := _window_passes(self.s.window_s, omega):
+                if short := window_too_short(self.s.window_s, omega):
                     row["status"] = f"refused: {short}"
                     continue
             due = assess and t_start >= self.next_condition_s - 0.5 * self.s.hop

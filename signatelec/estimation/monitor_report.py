@@ -50,7 +50,7 @@ def _clean(value):
 def _long_window(window_s: float | None) -> str | None:
     """The warning for windows longer than the training windows, or None."""
     from signatelec.estimation.features import LENGTH_DEPENDENT
-    from signatelec.estimation.monitor import WINDOW_S
+    from signatelec.estimation.monitor_settings import WINDOW_S
 
     if window_s is None or window_s <= WINDOW_S * (1.0 + 1e-9):
         return None
@@ -80,7 +80,7 @@ def qualify(
     a stretch's mean features) as atypical as the 1 % most atypical training traces (or
     stretches) of that model; windows longer than the
     training windows, a condition confidently not healthy (the load-state models learnt
-    healthy bearings), ``window_s`` above :data:`~signatelec.estimation.monitor.WINDOW_S`,
+    healthy bearings), ``window_s`` above :data:`~signatelec.estimation.monitor_settings.WINDOW_S`,
     whose length-dependent features (:data:`~signatelec.estimation.features.LENGTH_DEPENDENT`)
     the model never saw) and ``regime_confident`` (the regime probability at least
     :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). Returns
