@@ -31,6 +31,7 @@ from signatelec.estimation.models import LoadStateEstimator
 from signatelec.estimation.monitor import MonitorSettings, monitor_trace
 from signatelec.estimation.persistence import save_model
 from signatelec.estimation.training import DEFAULT_TABLE, train_model
+from signatelec.measurement.traces import TraceError
 from signatelec.physics.quasistatic import clearance_for_epsilon
 from signatelec.studies.monitor_records import whole_passes
 from tests.cli_run import run_main
@@ -175,6 +176,23 @@ def test_detector_false_alarm_rate_and_power():
     x[100:, 0] += 1.5e-3
     found = change_points(_windows(x), hop, 0.1)
     assert [k for k, _ in found] == pytest.approx([100], abs=2)
+
+
+@pytest.mark.parametrize("n", [20, 40])
+def test_detector_keeps_its_rate_on_short_records(n):
+    """Records of 4 and 8 s of independent Gaussian windows (20 and 40): at most the nominal
+    number of records with a false change, within its binomial spread. The windows'
+    precisions come from the segment's own scatter, so the statistic follows Hotelling's T^2
+    with the segment's degrees of freedom, not chi^2: read as chi^2, 18 and 9 of 2000 records
+    had a false change against 0.22 and 0.44 expected at 0.1 an hour."""
+    rng = np.random.default_rng(12)
+    records, hop, rate = 2000, 0.2, 0.1
+    flagged = sum(
+        bool(change_points(_windows(rng.standard_normal((n, 5)) * 1e-3), hop, rate))
+        for _ in range(records)
+    )
+    expected = records * rate * n * hop / 3600.0
+    assert flagged <= expected + 3.0 * math.sqrt(expected) + 1.0
 
 
 def _scatter_by_stretch(rng, n=300):
@@ -615,3 +633,89 @@ def test_ctrl_c_while_measuring_features_leaves_no_window_without_estimate(
     ok = windows[windows.status == "ok"]
     assert table.interrupted and len(calls) >= 2 and len(ok) > 0
     assert not ok["radial_load_n"].isna().any()
+
+
+# --- the record's time base ---------------------------------------------------------------------
+
+
+def _run(model_file, path, **settings):
+    from signatelec.estimation.persistence import load_model
+
+    chosen = {"omega_rad_s": OMEGA, "condition_every_s": None, **settings}
+    return monitor_trace(path, load_model(model_file), MonitorSettings(**chosen))
+
+
+@pytest.mark.parametrize("where", ["last row", "last row of a chunk"])
+def test_a_missing_time_is_repaired_where_it_falls(model_file, tiles, tmp_path, where):
+    """A row without a time at the end of the record, or of a chunk, is dropped and the window
+    holding it repaired as ``estimate`` repairs a trace (a NaN at a chunk's end made the
+    blocks' bisection never reach it: the monitor looped, taking memory without end)."""
+    t, r, _ = _record(tiles, [("low", 3.0)], seed=8)
+    at = t.size - 1 if where == "last row" else 20000 - 1
+    t[at] = np.nan
+    path = _write(tmp_path / "nan.parquet", t, r)
+    table = _run(model_file, path, chunk_rows=20000)
+    windows = table.frame()
+    assert len(windows) == (14 if where == "last row" else 15)
+    assert (windows["status"] == "ok").all()
+    if where != "last row":
+        assert any("repaired" in n and "t = 0" in n for n in table.notes), table.notes
+
+
+def test_time_going_back_ends_the_reading(model_file, tiles, tmp_path):
+    """A time that goes back (a logger restarted) ends the reading there, with a note naming
+    the row; the record before it is answered (its samples after were analysed in the wrong
+    place, or not at all). Within the first block the trace is refused, as ``estimate``
+    refuses it."""
+    t, r, _ = _record(tiles, [("low", 3.0), ("high", 3.0)], seed=9)
+    back = t.copy()
+    back[100000:] -= 4.0  # at 5 s, back to 1 s
+    table = _run(model_file, _write(tmp_path / "back.parquet", back, r))
+    windows = table.frame()
+    assert windows["end_s"].max() == pytest.approx(5.0)
+    assert any("time does not increase at row 100000" in n for n in table.notes), table.notes
+    stretches, changes, _ = stretches_and_changes(windows, 0.2, 0.1, 0.05)
+    assert [round(c["time_s"], 1) for c in changes] == [3.0]
+    early = t.copy()
+    early[30000:] -= 1.0
+    with pytest.raises(TraceError, match="time does not increase at row 30000"):
+        _run(model_file, _write(tmp_path / "early.parquet", early, r))
+
+
+def test_a_rate_change_cuts_windows_at_the_new_rate(model_file, tiles, tmp_path):
+    """A logger that halves its rate after 4 s: the later windows are cut at their own rate
+    (they were cut by the first block's sample count: 0.4 s of trace each), so a load step at
+    5.5 s is timed within one window, with a note."""
+    t, r, changes = _record(tiles, [("low", 5.5), ("high", 2.5)], seed=10)
+    keep = (t < 4.0) | (np.arange(t.size) % 2 == 0)
+    table = _run(model_file, _write(tmp_path / "rate.parquet", t[keep], r[keep]))
+    windows = table.frame()
+    straddles = (windows["start_s"] < 5.5) & (windows["end_s"] > 5.5)
+    assert len(windows) == 40 and (windows.loc[~straddles, "status"] == "ok").all()
+    assert any("sampled at 10000 Hz" in n for n in table.notes), table.notes
+    _, found, _ = stretches_and_changes(windows, 0.2, 0.1, 0.05)
+    assert [c["time_s"] for c in found] == pytest.approx(changes, abs=0.2)
+    assert table.duration_s == pytest.approx(8.0, abs=1e-3)
+
+
+def test_ctrl_c_inside_a_compiled_call_is_an_interruption(model_file, tiles, tmp_path, capsys,
+                                                           monkeypatch):  # fmt: skip
+    """Ctrl-C while numba loads a compiled function from its cache comes back as a SystemError
+    ("returned a result with an exception set") from the KeyboardInterrupt: exit 130 and one
+    line, as any Ctrl-C (it was a traceback and exit 1)."""
+    import signatelec.estimation.monitor as monitor
+
+    def interrupted(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("CPUDispatcher returned a result with an exception set") from exc
+
+    monkeypatch.setattr(monitor, "monitor_trace", interrupted)
+    t, r, _ = _record(tiles, [("low", 0.6)], seed=11)
+    path = _write(tmp_path / "rec.parquet", t, r)
+    code = run_main(["monitor", str(path), "--omega", "500", "--model", str(model_file),
+                     "--out", str(tmp_path / "out"), "--quiet"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 130 and len(err) == 1 and "interrupted" in err[0], err
+    assert not (tmp_path / "out").exists()

@@ -330,7 +330,7 @@ def test_wrong_speed_column_named(tmp_path):
     message = _refused(path, speed_column="speed")
     assert "--omega" not in message
     assert f"expected {expected_ball_pass_hz(300.0):.1f} Hz for --speed-column 'speed' " in message
-    assert "(its mean 300 rad/s over 0-0.99995 s)" in message
+    assert "(its median 300 rad/s over 0-0.99995 s)" in message
     assert "the trace's speed is about 500 rad/s" in message
 
 

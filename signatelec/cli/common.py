@@ -79,6 +79,13 @@ class _Group(click.Group):
             return super().invoke(ctx)
         except KeyboardInterrupt as exc:
             raise Stopped(_stop_word(exc), _stop_code(exc)) from None
+        except SystemError as exc:
+            # Ctrl-C inside a compiled function's first call (numba loading it from its cache)
+            # comes back as "returned a result with an exception set"
+            stop = exc.__context__ or exc.__cause__
+            if isinstance(stop, KeyboardInterrupt):
+                raise Stopped(_stop_word(stop), _stop_code(stop)) from None
+            raise
 
 
 #: Command-line options of the scene parameters they override, to name them in errors.

@@ -401,7 +401,7 @@ def _progress_printer(trace_file: str, every_s: float = 2.0):
         if now - last[0] < every_s or not table.sample_rate_hz:
             return
         last[0] = now
-        seconds = table.n_samples / table.sample_rate_hz
+        seconds = table.duration_s
         share = f" ({table.n_samples / total:.0%})" if total else ""
         # (no rate before the first windows are estimated: a followed trace's are asked in
         # batches)

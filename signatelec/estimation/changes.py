@@ -18,10 +18,14 @@ design bank, log F_r 7x; the log level and harmonics, set by the noise, within 1
 one variance pooled over a record read the windows of a noisy state as changes (8 spurious
 changes in 40 design records; docs/monitor/change_detection.md). The statistic of a
 split at k compares the precision-weighted means of the two sides, T_k = (m_L - m_R)'
-(A^-1 + B^-1)^-1 (m_L - m_R), A and B the sums of the sides' precisions: chi^2 with d degrees
-of freedom under no change; each candidate split is tested at ``false_alarm_per_hour`` x
-hop / 1 h, so that (Bonferroni) at most that many false changes are expected per hour of
-trace; a change's ``probability`` is 1 - its Bonferroni-corrected p-value over its segment.
+(A^-1 + B^-1)^-1 (m_L - m_R), A and B the sums of the sides' precisions: under no change,
+Hotelling's T^2 with as many degrees of freedom as the segment has windows less one (the
+precisions are estimated from the segment's own scatter; :func:`_tail`), chi^2 with d degrees
+of freedom on long segments (read as chi^2, records of 20 independent windows had 80 times
+the nominal rate of false changes); each candidate split is tested at
+``false_alarm_per_hour`` x hop / 1 h, so that (Bonferroni) at most that many false changes are
+expected per hour of trace; a change's ``probability`` is 1 - its Bonferroni-corrected p-value
+over its segment.
 A segmentation runs twice: the second reads the local variances within the first's segments
 and divides T by the long-run variance factor of the residuals (Bartlett window over their
 autocorrelation; ~1 on the DEM records: their windows are independent), so that correlated
@@ -223,14 +227,13 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
 
     def p_value_of(a, b, t):
         """The split's p-value, Bonferroni-corrected over the b - a - 1 splits of [a, b)."""
-        return min(1.0, (b - a - 1) * stats.chi2.sf(t, d))
+        return min(1.0, (b - a - 1) * _tail(t, d, b - a - 1))
 
     found, todo = [], [(0, n)]
-    threshold = stats.chi2.isf(alpha_per_split, d)
     while todo:
         a, b = todo.pop()
         k, t = best(a, b)
-        if k < 0 or not t > threshold:
+        if k < 0 or not _tail(t, d, b - a - 1) < alpha_per_split:
             continue
         found.append((k, p_value_of(a, b, t)))
         todo += [(a, k), (k, b)]
@@ -246,6 +249,17 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
             p_value = min(p_value, p_value_of(edges[i], edges[i + 2], t))
         placed.append((edges[i + 1], p_value))
     return placed
+
+
+def _tail(t: float, d: int, nu: int) -> float:
+    """P(T > t) of the statistic of a split of a segment of nu + 1 windows under no change:
+    Hotelling's T^2 with nu degrees of freedom, (nu - d + 1) / (d nu) T ~ F(d, nu - d + 1)
+    (the windows' precisions are estimated from the segment's own scatter; Anderson 2003,
+    *An Introduction to Multivariate Statistical Analysis*, section 5.2), which tends to
+    chi^2(d) as nu grows; 1 when nu < d (no estimate of d variances)."""
+    if nu < d:
+        return 1.0
+    return float(stats.f.sf(t * (nu - d + 1) / (d * nu), d, nu - d + 1))
 
 
 def _long_run_factor(p: np.ndarray, z: np.ndarray, changes: list[int]) -> float:

@@ -101,6 +101,20 @@ def defect_explains(trace, omega_rad_s: float, model, ripple, window_s: float, s
     return keys["condition"] == line[0] and p is not None and p >= CONFIDENT_CONDITION
 
 
+def confident_faults(windows: pd.DataFrame) -> pd.Series:
+    """Windows whose condition is a fault called with at least CONFIDENT_CONDITION: those that
+    answer without a load estimate (a spall can take every window's load features out of the
+    load model's domain), as ``estimate`` keeps a trace out of that domain only when a
+    confident fault explains it."""
+    call = windows["condition"] if "condition" in windows else pd.Series(None, windows.index)
+    p = pd.Series(np.nan, index=windows.index)
+    for name in call.dropna().unique():
+        if name != HEALTHY and f"{PROBABILITY}{name}" in windows:
+            at = call == name
+            p[at] = windows.loc[at, f"{PROBABILITY}{name}"]
+    return p >= CONFIDENT_CONDITION
+
+
 def assessed_windows(windows: pd.DataFrame) -> pd.DataFrame:
     """The windows whose condition was assessed (whatever their load state's status: a spall
     can take the load features out of the load model's domain), in time order."""

@@ -46,7 +46,7 @@ from signatelec.estimation.analysis import analyse_windows
 from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import trace_feature_names, window_features
-from signatelec.estimation.health import assess_window, defect_explains
+from signatelec.estimation.health import assess_window, confident_faults, defect_explains
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.estimation.monitor_settings import MonitorSettings, window_too_short
 from signatelec.measurement.ripple import find_ripple
@@ -91,6 +91,9 @@ KEPT_FEATURES = (
 #: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
 #: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
 TRACK_MIN_SNR = 25.0
+#: Relative change of a block's sample rate from the first block's that the notes report (a
+#: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
+RATE_CHANGE = 0.05
 #: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
 TYPICAL_SLIP = -0.001
 
@@ -102,6 +105,7 @@ class WindowTable:
     parts: list[pd.DataFrame] = field(default_factory=list)
     sample_rate_hz: float | None = None
     n_samples: int = 0
+    duration_s: float = 0.0  # from the first time to one step after the last
     notes: list[str] = field(default_factory=list)
     cpu_s: float = 0.0
     interrupted: bool = False
@@ -116,16 +120,17 @@ class WindowTable:
         return pd.concat(self.parts, ignore_index=True)
 
 
-def _mean_speed(speed: np.ndarray) -> float:
-    """The mean of the speed samples that are not missing; NaN (without numpy's warning on
-    stderr) when all are."""
+def _speed_of(speed: np.ndarray) -> float:
+    """The median of the speed samples that are not missing (a glitch of a few samples does
+    not move it, where it moved the mean: 5 samples at 1e6 rad/s in a window of 10000 read
+    1000 rad/s); NaN (without numpy's warning on stderr) when all are missing."""
     given = speed[~np.isnan(speed)]
-    return float(given.mean()) if given.size else math.nan
+    return float(np.median(given)) if given.size else math.nan
 
 
 def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float | None):
     if speed is not None:
-        return _mean_speed(speed)
+        return _speed_of(speed)
     if settings.track_speed and tracked is not None:
         return tracked
     return float(settings.omega_rad_s)
@@ -169,7 +174,7 @@ def _speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s:
     for --omega (:meth:`~signatelec.measurement.ripple.Ripple.problem`'s own words)."""
     if settings.speed_column is not None:
         return (
-            f"--speed-column {settings.speed_column!r} (its mean {omega:g} rad/s over "
+            f"--speed-column {settings.speed_column!r} (its median {omega:g} rad/s over "
             f"{start_s:.6g}-{end_s:.6g} s)"
         )
     if settings.track_speed and not first:
@@ -227,6 +232,11 @@ class _Windows:
     def __init__(self, settings, model, table, source):
         self.s, self.model, self.table, self.source = settings, model, table, source
         self.t = np.empty(0)
+        self.at = np.empty(0)  # the times the blocks are cut at (:meth:`_in_order`)
+        self.first_time, self.last_time = None, -math.inf  # the first and last times read
+        self.ended = False  # a time that did not increase ended the reading
+        self.rate_noted = False
+        self.blocks, self.repaired, self.first_repair = 0, 0, None  # blocks read, repaired
         self.r = np.empty(0)
         self.v = None if settings.speed_column is None else np.empty(0)
         self.next_window = 0  # index of the next window
@@ -236,22 +246,27 @@ class _Windows:
         self.first = True
         self.ripple = "unchecked"  # the last screening's ripple status
         self.next_screen_s = -math.inf
+        self.last_screen_s = None  # when the last screen found the line (None: it did not)
         self.next_condition_s = -math.inf  # when the next window's condition is due
         self.condition_noted = False
         self.pending: list[dict] = []  # windows waiting for the model
         self.unmeasured: list[tuple] = []  # (row, analysis) of windows waiting for features
 
     def add(self, chunk) -> None:
-        self.t = np.concatenate([self.t, chunk.time_s])
-        self.r = np.concatenate([self.r, chunk.resistance_ohm])
+        if self.ended:
+            return
+        t, at, r, v = self._in_order(chunk)
+        self.t = np.concatenate([self.t, t])
+        self.at = np.concatenate([self.at, at])
+        self.r = np.concatenate([self.r, r])
         if self.v is not None:
-            self.v = np.concatenate([self.v, chunk.speed_rad_s])
-        self.table.n_samples += chunk.time_s.size
+            self.v = np.concatenate([self.v, v])
+        self.table.n_samples += t.size
         if self.fs is None and self.t.size >= 64:
             step = float(np.nanmedian(np.diff(self.t[:4096])))
             if not step > 0.0:
                 raise TraceError(f"{self.source}: time does not increase at the start")
-            self.fs = 1.0 / step
+            self.fs = self.block_fs = 1.0 / step
             self.table.sample_rate_hz = self.fs
             self.t0 = float(self.t[np.isfinite(self.t)][0])
             if self.s.window_s * self.fs < 16:
@@ -265,13 +280,55 @@ class _Windows:
                     f"--hop {self.s.hop:g}: {self.s.hop * self.fs:.2g} samples at {self.fs:.6g} "
                     "Hz; a hop needs at least one sample"
                 )
+        if self.fs is not None and math.isfinite(self.last_time):
+            self.table.duration_s = self.last_time - self.t0 + 1.0 / self.fs
         while self.fs is not None and self._block(final=False):
             pass
+
+    def _in_order(self, chunk) -> tuple:
+        """(times, times to cut blocks at, resistances, speeds) of the chunk's rows up to the
+        first whose time does not increase on the times before it: the reading ends there,
+        with a note (TraceError within the first block, which is refused as ``prepare_trace``
+        refuses it). A missing time is cut at the time before it (the block
+        holding it repairs it, or refuses it, as ``estimate`` does): a NaN among the times
+        would make the blocks' bisections meaningless."""
+        t, r, v = chunk.time_s, chunk.resistance_ohm, chunk.speed_rad_s
+        finite = np.isfinite(t)
+        at = t
+        if not finite.all():
+            last = np.maximum.accumulate(np.where(finite, np.arange(t.size), -1))
+            at = np.where(last >= 0, t[np.maximum(last, 0)], self.last_time)
+        rows = np.flatnonzero(finite)
+        if rows.size and self.first_time is None:
+            self.first_time = float(t[rows[0]])
+        steps = np.diff(t[rows], prepend=self.last_time)
+        back = np.flatnonzero(~(steps > 0.0))
+        if back.size:
+            i = int(rows[back[0]])
+            before = self.last_time if back[0] == 0 else float(t[rows[back[0] - 1]])
+            what = (
+                f"time does not increase at row {chunk.first_row + i} (t = {before:.9g} s, "
+                f"then {t[i]:.9g} s)"
+            )
+            if before < self.first_time + BLOCK_S:  # within the first block: it is refused
+                raise TraceError(f"{self.source}: {what}; sort the trace or remove repeated times")
+            self.table.notes.append(f"{what}: the record is read up to there")
+            self.ended = True
+            t, at, r = t[:i], at[:i], r[:i]
+            v = None if v is None else v[:i]
+        if at.size:
+            self.last_time = float(at[-1])
+        return t, at, r, v
 
     def finish(self) -> None:
         while self.fs is not None and self._block(final=True):
             pass
         self.flush()
+        if self.repaired:
+            self.table.notes.append(
+                f"{self.repaired} of {self.blocks} blocks of {BLOCK_S:g} s repaired as estimate "
+                f"repairs a trace, the first {self.first_repair}"
+            )
 
     def flush(self) -> None:
         """Ask the model about the pending windows and file them in the table."""
@@ -292,22 +349,22 @@ class _Windows:
         n_per = max(1, int(round(BLOCK_S / hop)))
         start = self.t0 + self.next_window * hop
         end_needed = start + (n_per - 1) * hop + win
-        if not self.t.size:
+        if not self.at.size:
             return False
-        last = self.t[-1]
+        last = self.at[-1]
         if last < end_needed:
             if not final:
                 return False
-            n_per = int(math.floor((last + 1.0 / self.fs - start - win) / hop + 1e-9)) + 1
+            n_per = int(math.floor((last + 1.0 / self.block_fs - start - win) / hop + 1e-9)) + 1
             if n_per < 1:
                 return False
             end_needed = start + (n_per - 1) * hop + win
-        lo = int(np.searchsorted(self.t, start - 0.5 / self.fs))
-        hi = int(np.searchsorted(self.t, end_needed - 0.5 / self.fs))
-        self._estimate(lo, hi, start, n_per)
+        lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
+        hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
+        self._estimate(lo, hi, start, n_per, final)
         self.next_window += n_per
-        keep = int(np.searchsorted(self.t, self.t0 + self.next_window * hop - 0.5 / self.fs))
-        self.t, self.r = self.t[keep:], self.r[keep:]
+        keep = int(np.searchsorted(self.at, self.t0 + self.next_window * hop - 0.5 / self.fs))
+        self.t, self.at, self.r = self.t[keep:], self.at[keep:], self.r[keep:]
         if self.v is not None:
             self.v = self.v[keep:]
         return True
@@ -369,13 +426,12 @@ class _Windows:
             self.table.notes.append(f"at t = {row['start_s']:.6g} s: {note}")
             self.condition_noted = True
 
-    def _estimate(self, lo, hi, start, n_per) -> None:
+    def _estimate(self, lo, hi, start, n_per, final=False) -> None:
         clock = time.process_time()
+        self.blocks += 1
         speed = None if self.v is None else self.v[lo:hi]
         omega_block = _omega_of(self.s, speed, self.tracked)
         where = f"{self.source} at t = {start:.6g} s"
-        hop_n = int(round(self.s.hop * self.fs))
-        win_n = int(round(self.s.window_s * self.fs))
         rows, status, ripple = [], "ok", "unchecked"
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
@@ -386,12 +442,31 @@ class _Windows:
                 omega_block,
                 source=where if not self.first else self.source,
             )
-            if self.first or start >= self.next_screen_s:
-                given = _speed_given(self.s, omega_block, start, self.t[hi - 1], self.first)
+            if trace.repairs:
+                self.repaired += 1
+                self.first_repair = self.first_repair or f"at t = {start:.6g} s: " + "; ".join(
+                    trace.repairs
+                )
+            # the record's last blocks too: a speed gone wrong since the last screen is named
+            if self.first or final or start >= self.next_screen_s:
+                given = _speed_given(self.s, omega_block, start, self.at[hi - 1], self.first)
                 assessed = self.s.condition_every_s is not None
                 window = self.s.window_s if assessed else None  # a defect's line to confirm
-                ripple, note = _screen(trace, omega_block, self.model, self.first, given, window)
+                try:
+                    ripple, note = _screen(
+                        trace, omega_block, self.model, self.first, given, window
+                    )
+                except TraceError:
+                    if self.last_screen_s is not None:
+                        self.table.notes.append(
+                            f"at t = {start:.6g} s the ball-pass line is not where the speed "
+                            f"puts it: the windows since the last screen that found it, at "
+                            f"t = {self.last_screen_s:.6g} s, may have been read at a wrong speed"
+                        )
+                    self.last_screen_s = None
+                    raise
                 self.ripple, self.next_screen_s = ripple, start + SCREEN_EVERY_S
+                self.last_screen_s = start
                 if note:
                     self.table.notes.append(note)
             ripple = self.ripple
@@ -400,6 +475,16 @@ class _Windows:
                 raise
             status, trace = f"refused: {exc}", None
         self.first = False
+        # the windows cut at the block's own rate (a logger's rate may change within a record)
+        fs = self.fs if trace is None else trace.sample_rate_hz
+        if abs(fs / self.fs - 1.0) > RATE_CHANGE and not self.rate_noted:
+            self.table.notes.append(
+                f"at t = {start:.6g} s: sampled at {fs:.6g} Hz, the record's first block at "
+                f"{self.fs:.6g} Hz; each block's windows are cut at its own rate"
+            )
+            self.rate_noted = True
+        hop_n, win_n = int(round(self.s.hop * fs)), int(round(self.s.window_s * fs))
+        self.block_fs = fs
         every = self.s.condition_every_s
         assess = getattr(self.model, "condition", None) is not None and every is not None
         todo = []  # (row, segment, omega) of the windows to measure
@@ -421,7 +506,7 @@ class _Windows:
                 continue
             omega = omega_block
             if speed is not None:
-                omega = _mean_speed(speed[k * hop_n : k * hop_n + win_n])
+                omega = _speed_of(speed[k * hop_n : k * hop_n + win_n])
                 if not (math.isfinite(omega) and omega > 0):
                     row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
                     continue
@@ -482,18 +567,16 @@ def monitor_trace(
                 cutter.add(chunk)
                 if progress is not None:
                     progress(table)
+                if cutter.ended:
+                    break
         except KeyboardInterrupt:
             if not s.follow:
                 raise
             table.interrupted = True
         cutter.finish()
     windows = table.frame()
-    # a window whose condition was assessed answers too (a spall can take every window's load
-    # features out of the load model's domain)
-    answered = windows["status"] == "ok" if len(windows) else pd.Series(dtype=bool)
-    if "condition" in windows:
-        answered |= windows["condition"].notna()
-    if len(windows) and not answered.any():
+    # a window whose condition is a confident fault answers too (:func:`confident_faults`)
+    if len(windows) and not ((windows["status"] == "ok") | confident_faults(windows)).any():
         raise TraceError(
             f"{source}: none of its {len(windows)} windows carries an estimate; the first: "
             f"{windows['status'].iloc[0]}"

@@ -183,9 +183,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
             "trace": {
                 "sample_rate_hz": table.sample_rate_hz,
                 "n_samples": table.n_samples,
-                "duration_s": table.n_samples / table.sample_rate_hz
-                if table.sample_rate_hz
-                else 0.0,
+                "duration_s": table.duration_s,
                 "windows": int(len(windows)),
                 "windows_without_estimate": int(refused.size),
                 "first_refusal": str(refused.iloc[0]) if refused.size else None,

@@ -124,12 +124,18 @@ class TraceColumns(NamedTuple):
 
 
 def check_columns(columns, wanted, where: str, options: dict | None = None) -> None:
-    """TraceError naming the first of ``wanted`` missing from ``columns`` and the option that
+    """TraceError naming the first of ``wanted`` missing from ``columns``, or found more than
+    once (pandas' renaming of a CSV header's repeated name undone), and the option that
     names it (``options``: column -> option; by default the time and resistance options,
     whatever the names given, in the order time, resistance, then ``--speed-column``)."""
-    columns = list(columns)
+    columns = [_unmangled(c, columns) for c in columns]
     default = ("--time-column", "--resistance-column", "--speed-column")
     for i, column in enumerate(wanted):
+        if columns.count(column) > 1:
+            raise TraceError(
+                f"{where}: {columns.count(column)} columns named {column!r}; which one is meant "
+                "cannot be told: give each column its own name"
+            )
         if column not in columns:
             option = (options or {}).get(column, default[min(i, len(default) - 1)])
             # repr: a name holding a line break or control character stays on the one line
@@ -137,6 +143,13 @@ def check_columns(columns, wanted, where: str, options: dict | None = None) -> N
             raise TraceError(
                 f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
             )
+
+
+def _unmangled(name, columns):
+    """A column's own name where pandas renamed it: a CSV header's repeated "x" is read as
+    "x.1", "x.2", ..."""
+    base, dot, count = str(name).rpartition(".")
+    return base if dot and count.isdigit() and base in columns else name
 
 
 def numeric_column(raw, column: str, where: str, first_row: int = 0) -> np.ndarray:
