@@ -407,3 +407,14 @@ def test_evidence_settings_accept_numpy_numbers():
     assert [s["start_s"] for s in as_numpy[0]] == [s["start_s"] for s in as_python[0]]
     with pytest.raises(ValueError, match="--hop True"):
         stretches_and_changes(windows, True, 0.1, 0.05)
+
+
+def test_lines_ending_in_a_carriage_return_alone(tmp_path):
+    """A CSV whose lines end in CR alone (the old Mac convention) is one line to a reader of
+    lines: one refusal naming the line ends (it was read as a header and no rows: "0 samples,
+    shorter than one --window"), after at most a megabyte of it."""
+    path = tmp_path / "mac.csv"
+    path.write_bytes(b"time_s,resistance_ohm\r" + b"".join(
+        f"{i / FS!r},0.003\r".encode() for i in range(200000)))  # fmt: skip
+    message = _refused(path, omega_rad_s=OMEGA)
+    assert "carriage return alone" in message and message.startswith(f"trace {str(path)!r}")

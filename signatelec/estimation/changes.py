@@ -22,7 +22,8 @@ split at k compares the precision-weighted means of the two sides, T_k = (m_L - 
 Hotelling's T^2 with as many degrees of freedom as the segment has windows less one (the
 precisions are estimated from the segment's own scatter; :func:`_tail`), chi^2 with d degrees
 of freedom on long segments (read as chi^2, records of 20 independent windows had 80 times
-the nominal rate of false changes); each candidate split is tested at
+the nominal rate of false changes; the condition's sparse series keeps chi^2, ``hotelling``
+of :func:`change_points`); each candidate split is tested at
 ``false_alarm_per_hour`` x hop / 1 h, so that (Bonferroni) at most that many false changes are
 expected per hour of trace; a change's ``probability`` is 1 - its Bonferroni-corrected p-value
 over its segment.
@@ -214,9 +215,12 @@ def _best_split(cum_p, cum_px, a: int, b: int, min_segment: int) -> tuple[int, f
     return best_k, best_t
 
 
-def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float = 1.0):
+def _segment(
+    p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float = 1.0, hotelling=True
+):
     """Binary segmentation of series ``z`` with window precisions ``p`` (the statistic divided
-    by the long-run variance ``factor``): [(index, p-value)] of the changes."""
+    by the long-run variance ``factor``; its tail Hotelling's, else chi^2): [(index, p-value)]
+    of the changes."""
     n, d = z.shape
     cum_p = np.concatenate([np.zeros((1, d, d)), np.cumsum(p, axis=0)])
     cum_px = np.vstack([np.zeros(d), np.cumsum(np.einsum("kij,kj->ki", p, z), axis=0)])
@@ -225,15 +229,19 @@ def _segment(p: np.ndarray, z: np.ndarray, alpha_per_split: float, factor: float
         k, t = _best_split(cum_p, cum_px, a, b, MIN_SEGMENT)
         return k, t / factor
 
+    def tail(a, b, t):
+        """P(T > t) of a split of [a, b) under no change."""
+        return _tail(t, d, b - a - 1 if hotelling else math.inf)
+
     def p_value_of(a, b, t):
         """The split's p-value, Bonferroni-corrected over the b - a - 1 splits of [a, b)."""
-        return min(1.0, (b - a - 1) * _tail(t, d, b - a - 1))
+        return min(1.0, (b - a - 1) * tail(a, b, t))
 
     found, todo = [], [(0, n)]
     while todo:
         a, b = todo.pop()
         k, t = best(a, b)
-        if k < 0 or not _tail(t, d, b - a - 1) < alpha_per_split:
+        if k < 0 or not tail(a, b, t) < alpha_per_split:
             continue
         found.append((k, p_value_of(a, b, t)))
         todo += [(a, k), (k, b)]
@@ -256,9 +264,11 @@ def _tail(t: float, d: int, nu: int) -> float:
     Hotelling's T^2 with nu degrees of freedom, (nu - d + 1) / (d nu) T ~ F(d, nu - d + 1)
     (the windows' precisions are estimated from the segment's own scatter; Anderson 2003,
     *An Introduction to Multivariate Statistical Analysis*, section 5.2), which tends to
-    chi^2(d) as nu grows; 1 when nu < d (no estimate of d variances)."""
+    chi^2(d) as nu grows (nu infinite: chi^2); 1 when nu < d (no estimate of d variances)."""
     if nu < d:
         return 1.0
+    if math.isinf(nu):
+        return float(stats.chi2.sf(t, d))
     return float(stats.f.sf(t * (nu - d + 1) / (d * nu), d, nu - d + 1))
 
 
@@ -293,10 +303,12 @@ def change_points(
     hop_s: float,
     false_alarm_per_hour: float = FALSE_ALARM_PER_HOUR,
     series: np.ndarray | None = None,
+    hotelling: bool = True,
 ) -> list[tuple[int, float]]:
     """[(row of ``windows`` where a new stretch starts, probability)] (module docstring);
     ``windows`` holds the usable windows only, in time order, ``hop_s`` apart; ``series``:
-    one row per window, instead of :func:`detector_series`."""
+    one row per window, instead of :func:`detector_series`; ``hotelling``: the statistic's
+    tail Hotelling's T^2 (:func:`_tail`), else chi^2."""
     x = detector_series(windows) if series is None else series
     ok = np.all(np.isfinite(x), axis=1)
     x = x[ok]
@@ -307,10 +319,10 @@ def change_points(
     z = x / _robust_scale(x)
     z -= np.median(z, axis=0)
     p = _precisions(z, [0, z.shape[0]])
-    first = [k for k, _ in _segment(p, z, alpha)]
+    first = [k for k, _ in _segment(p, z, alpha, hotelling=hotelling)]
     # the second pass reads each window's scatter within its first-pass segment
     p = _precisions(z, [0, *first, z.shape[0]])
-    second = _segment(p, z, alpha, _long_run_factor(p, z, first))
+    second = _segment(p, z, alpha, _long_run_factor(p, z, first), hotelling)
     return [(int(rows[k]), 1.0 - p_value) for k, p_value in second]
 
 

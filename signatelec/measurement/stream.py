@@ -62,6 +62,8 @@ CHUNK_ROWS = 1 << 18
 GROUP_ROWS = 1 << 21
 PARQUET_SUFFIXES = (".parquet", ".pq")
 CSV_SUFFIXES = (".csv", ".txt", ".tsv")
+#: Longest header line read (a file whose lines end in a lone carriage return is one "line").
+_HEADER_BYTES = 1 << 20
 #: The path that reads CSV from standard input.
 STANDARD_INPUT = "-"
 #: Most wall time spent gathering one block of a stream before it is parsed: a slow stream's
@@ -257,7 +259,7 @@ def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = 
     idle_since, size = time.monotonic(), None
     while True:
         pos = fh.tell() if follow else 0  # (a stream cannot tell)
-        line = fh.readline()
+        line = fh.readline(_HEADER_BYTES)
         if not line.endswith(b"\n"):
             if not follow:
                 if line.strip() and not line.startswith(b"#"):
@@ -291,6 +293,11 @@ def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
     import pandas as pd
 
     header = _header(fh, follow, poll_s, where, idle_s)
+    if b"\r" in header.rstrip(b"\r\n"):  # one "line" holding the whole file
+        raise TraceError(
+            f"{where}: cannot be read as csv (its lines end in a carriage return alone, the "
+            "old Mac convention); convert them to LF or CRLF line ends"
+        )
     if fh.seekable():
         start = fh.tell()
         sep = _separator(header + fh.read(4096))
