@@ -540,9 +540,9 @@ def test_the_false_alarm_rate_is_the_whole_records(monkeypatch, every_s, shares)
     asked = {}
 
     def spy(name, detector):
-        def call(windows, hop_s, false_alarm_per_hour, series=None):
+        def call(windows, hop_s, false_alarm_per_hour, **kwargs):
             asked[name] = false_alarm_per_hour
-            return detector(windows, hop_s, false_alarm_per_hour, series=series)
+            return detector(windows, hop_s, false_alarm_per_hour, **kwargs)
 
         return call
 
