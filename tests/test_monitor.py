@@ -719,3 +719,31 @@ def test_ctrl_c_inside_a_compiled_call_is_an_interruption(model_file, tiles, tmp
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 130 and len(err) == 1 and "interrupted" in err[0], err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_speed_gone_wrong_between_screens_is_not_confident(model_file, tiles, tmp_path):
+    """The shaft turns at 600 rad/s from 4 s while --omega says 500: the windows cannot tell
+    (their features read as another regime, with a confident regime alarm), the ripple screen
+    of the record's last block can: it finds no line there. The windows since the last screen
+    that found the line are "unconfirmed": their stretches are warned and no regime call or
+    alarm is confident (the record ending before the next screen at 10 s, nothing was
+    caught)."""
+    from signatelec.estimation.monitor_report import summary_of
+
+    t, r, _ = _record(tiles, [("low", 9.0)], seed=13)
+    fast = np.interp(4.0 + 1.2 * (t - 4.0), t, r)  # the same ripple 1.2x faster from 4 s
+    path = _write(tmp_path / "speed.parquet", t, np.where(t < 4.0, r, fast))
+    from signatelec.estimation.persistence import load_model
+
+    model = load_model(model_file)
+    settings = MonitorSettings(omega_rad_s=OMEGA, condition_every_s=None)
+    table = monitor_trace(path, model, settings)
+    windows = table.frame()
+    # the last block's own screen finds no line near 500 rad/s's: "none"
+    assert windows.loc[windows["status"] == "ok", "ripple"].isin(["unconfirmed", "none"]).all()
+    assert (windows.loc[windows["end_s"] <= 8.0, "ripple"] == "unconfirmed").all()
+    assert any("may have been read at a wrong speed" in n for n in table.notes), table.notes
+    stretches, changes, alarms = stretches_and_changes(windows, 0.2, 0.1, 0.05)
+    summary = summary_of(table, settings, stretches, changes, alarms, {}, model)
+    assert summary["stretches"] and not any(s["regime_confident"] for s in summary["stretches"])
+    assert not any(a["confident"] for a in summary["alarms"])

@@ -205,7 +205,8 @@ def _windows_seen(windows: pd.DataFrame) -> dict:
         if name in windows and windows[name].notna().any():
             out[name] = float(windows[name].median())
     if "ripple" in windows:
-        out["no_line_share"] = float((windows["ripple"] == "none").mean())
+        # no line at the screen, or a later screen that lost it (the speed went wrong)
+        out["no_line_share"] = float(windows["ripple"].isin(("none", "unconfirmed")).mean())
     return out
 
 

@@ -48,7 +48,13 @@ from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import trace_feature_names, window_features
 from signatelec.estimation.health import assess_window, confident_faults, defect_explains
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
-from signatelec.estimation.monitor_settings import MonitorSettings, window_too_short
+from signatelec.estimation.monitor_settings import (
+    MonitorSettings,
+    omega_of,
+    speed_given,
+    speed_of,
+    window_too_short,
+)
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import (
@@ -120,26 +126,11 @@ class WindowTable:
         return pd.concat(self.parts, ignore_index=True)
 
 
-def _speed_of(speed: np.ndarray) -> float:
-    """The median of the speed samples that are not missing (a glitch of a few samples does
-    not move it, where it moved the mean: 5 samples at 1e6 rad/s in a window of 10000 read
-    1000 rad/s); NaN (without numpy's warning on stderr) when all are missing."""
-    given = speed[~np.isnan(speed)]
-    return float(np.median(given)) if given.size else math.nan
-
-
-def _omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float | None):
-    if speed is not None:
-        return _speed_of(speed)
-    if settings.track_speed and tracked is not None:
-        return tracked
-    return float(settings.omega_rad_s)
-
-
 def _screen(trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=None):
     """(ripple status, note) of a block's first SCREEN_S, or TraceError naming ``speed`` (what
-    the user gave for ``omega``: :func:`_speed_given`). A later block whose
-    first SCREEN_S shows the line elsewhere has its last SCREEN_S screened too, and is refused
+    the user gave for ``omega``: :func:`~signatelec.estimation.monitor_settings.speed_given`).
+    A later block whose first SCREEN_S shows the line elsewhere has its last SCREEN_S screened
+    too, and is refused
     only when both do: a change of state within the screened trace joins two ripples whose
     phases do not continue, which can move the periodogram's peak out of the tolerance (a
     calibration record's zero-to-preload step 0.24 s into a screen put it at +0.56 %). A line
@@ -166,20 +157,6 @@ def _screen(trace, omega, model: LoadStateModel, first: bool, speed=None, window
     if ripple.status in ("elsewhere", "constant"):
         raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
     return ripple.status, note if first else None
-
-
-def _speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: float, first):
-    """How a refusal names the speed ``omega`` of the block ``start_s``-``end_s``: what the user
-    gave (the speed column's mean there, the speed tracked from the ball-pass line), or None
-    for --omega (:meth:`~signatelec.measurement.ripple.Ripple.problem`'s own words)."""
-    if settings.speed_column is not None:
-        return (
-            f"--speed-column {settings.speed_column!r} (its median {omega:g} rad/s over "
-            f"{start_s:.6g}-{end_s:.6g} s)"
-        )
-    if settings.track_speed and not first:
-        return f"the speed tracked from the ball-pass line, {omega:g} rad/s (--track-speed)"
-    return None
 
 
 def kept_features(model: LoadStateModel) -> tuple[str, ...]:
@@ -369,6 +346,25 @@ class _Windows:
             self.v = self.v[keep:]
         return True
 
+    def _unconfirmed(self, start: float) -> None:
+        """A screen at ``start`` found the ball-pass line away from the speed's, or none: the
+        windows since the last screen that found it take the ripple status "unconfirmed"
+        (their stretches are warned of a wrong speed, :func:`~signatelec.estimation.
+        monitor_report.qualify`), with a note."""
+        since, self.last_screen_s = self.last_screen_s, None
+        self.table.notes.append(
+            f"at t = {start:.6g} s the ball-pass line is not where the speed puts it, or is "
+            "gone: the "
+            f"windows since the last screen that found it, at t = {since:.6g} s, may have been "
+            "read at a wrong speed (ripple 'unconfirmed')"
+        )
+        for row in self.pending:
+            if row["start_s"] >= since:
+                row["ripple"] = "unconfirmed"
+        if self.table.parts:  # a batch filed since
+            part = self.table.parts[-1]
+            part.loc[part["start_s"] >= since, "ripple"] = "unconfirmed"
+
     def _measure(self, windows, fs: float) -> None:
         """Analyses of windows [(row, segment, omega)] of one length, computed together
         (:func:`~signatelec.estimation.analysis.analyse_windows`); their features follow
@@ -430,7 +426,7 @@ class _Windows:
         clock = time.process_time()
         self.blocks += 1
         speed = None if self.v is None else self.v[lo:hi]
-        omega_block = _omega_of(self.s, speed, self.tracked)
+        omega_block = omega_of(self.s, speed, self.tracked)
         where = f"{self.source} at t = {start:.6g} s"
         rows, status, ripple = [], "ok", "unchecked"
         try:
@@ -449,7 +445,7 @@ class _Windows:
                 )
             # the record's last blocks too: a speed gone wrong since the last screen is named
             if self.first or final or start >= self.next_screen_s:
-                given = _speed_given(self.s, omega_block, start, self.at[hi - 1], self.first)
+                given = speed_given(self.s, omega_block, start, self.at[hi - 1], self.first)
                 assessed = self.s.condition_every_s is not None
                 window = self.s.window_s if assessed else None  # a defect's line to confirm
                 try:
@@ -458,15 +454,13 @@ class _Windows:
                     )
                 except TraceError:
                     if self.last_screen_s is not None:
-                        self.table.notes.append(
-                            f"at t = {start:.6g} s the ball-pass line is not where the speed "
-                            f"puts it: the windows since the last screen that found it, at "
-                            f"t = {self.last_screen_s:.6g} s, may have been read at a wrong speed"
-                        )
-                    self.last_screen_s = None
+                        self._unconfirmed(start)
                     raise
+                if ripple in ("found", "harmonic", "defect"):
+                    self.last_screen_s = start
+                elif self.last_screen_s is not None:  # the line lost since the last screen
+                    self._unconfirmed(start)
                 self.ripple, self.next_screen_s = ripple, start + SCREEN_EVERY_S
-                self.last_screen_s = start
                 if note:
                     self.table.notes.append(note)
             ripple = self.ripple
@@ -506,7 +500,7 @@ class _Windows:
                 continue
             omega = omega_block
             if speed is not None:
-                omega = _speed_of(speed[k * hop_n : k * hop_n + win_n])
+                omega = speed_of(speed[k * hop_n : k * hop_n + win_n])
                 if not (math.isfinite(omega) and omega > 0):
                     row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
                     continue

@@ -1,11 +1,13 @@
 """What :func:`~signatelec.estimation.monitor.monitor_trace` does with a trace: the window, hop,
 speed, columns, reading and condition cadence (:class:`MonitorSettings`), checked before any
-trace is read."""
+trace is read; the speed a block or a window is read at (:func:`omega_of`)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+
+import numpy as np
 
 from signatelec.estimation.health import CONDITION_EVERY_S
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
@@ -115,3 +117,35 @@ def window_too_short(window_s: float, omega: float) -> str | None:
         f"--window {window_s:g}: {passes:.3g} ball passes at {omega:g} rad/s; a window needs at "
         f"least {MIN_BALL_PASSES:g} (>= {window_s * MIN_BALL_PASSES / passes:.3g} s)"
     )
+
+
+def speed_of(speed: np.ndarray) -> float:
+    """The median of the speed samples that are not missing (a glitch of a few samples does
+    not move it, where it moved the mean: 5 samples at 1e6 rad/s in a window of 10000 read
+    1000 rad/s); NaN (without numpy's warning on stderr) when all are missing."""
+    given = speed[~np.isnan(speed)]
+    return float(np.median(given)) if given.size else math.nan
+
+
+def omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float | None):
+    """A block's speed: the speed column's (:func:`speed_of`), the speed tracked from the
+    ball-pass line, or --omega."""
+    if speed is not None:
+        return speed_of(speed)
+    if settings.track_speed and tracked is not None:
+        return tracked
+    return float(settings.omega_rad_s)
+
+
+def speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: float, first):
+    """How a refusal names the speed ``omega`` of the block ``start_s``-``end_s``: what the user
+    gave (the speed column's median there, the speed tracked from the ball-pass line), or None
+    for --omega (:meth:`~signatelec.measurement.ripple.Ripple.problem`'s own words)."""
+    if settings.speed_column is not None:
+        return (
+            f"--speed-column {settings.speed_column!r} (its median {omega:g} rad/s over "
+            f"{start_s:.6g}-{end_s:.6g} s)"
+        )
+    if settings.track_speed and not first:
+        return f"the speed tracked from the ball-pass line, {omega:g} rad/s (--track-speed)"
+    return None
