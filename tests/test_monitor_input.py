@@ -105,7 +105,7 @@ def test_standard_input_is_read_as_it_arrives(monkeypatch):
     rows = "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, r, strict=True))
     text = ("time_s,resistance_ohm\n" + rows).encode()
     cuts = [0, 1000, 20011, 45017, len(text)]  # 20011, 45017: within lines
-    pipe = _Pipe([text[a:b] for a, b in zip(cuts, cuts[1:], strict=False)], pause_s=1.5)
+    pipe = _Pipe([text[a:b] for a, b in zip(cuts, cuts[1:], strict=False)], pause_s=3.0)
     monkeypatch.setattr("sys.stdin", pipe)
     seen, got = [], []
     for chunk in read_chunks("-"):
@@ -409,6 +409,32 @@ def test_evidence_settings_accept_numpy_numbers():
         stretches_and_changes(windows, True, 0.1, 0.05)
 
 
+@pytest.mark.parametrize(
+    ("header", "column", "refused"),
+    [
+        ("time_s,r.1,r", "r.1", None),  # a real name that pandas' renaming also makes
+        ("time_s,r,r", "r", "2 columns named 'r'"),
+        ("time_s,1,1.5", "1", None),
+    ],
+)
+def test_columns_named_twice(tmp_path, header, column, refused):
+    """A column named twice is refused in one line (which one is meant cannot be told), from
+    the header as written: pandas renames a repeated "r" to "r.1", which a real column may
+    be called too, and is then read. Parquet names are the file's own."""
+    rows = "".join(f"{i / FS!r},0.003,0.004\n" for i in range(100))
+    path = tmp_path / "cols.csv"
+    path.write_text(f"{header}\n{rows}")
+    names = ("time_s", column)
+    if refused:
+        with pytest.raises(TraceError, match=refused):
+            list(read_chunks(path, *names))
+    else:
+        assert len(next(iter(read_chunks(path, *names))).resistance_ohm) == 100
+    frame = pd.DataFrame(np.zeros((4, 3)), columns=["time_s", "r.1", "r"])
+    frame.to_parquet(tmp_path / "cols.parquet")
+    assert len(next(iter(read_chunks(tmp_path / "cols.parquet", "time_s", "r.1"))).time_s) == 4
+
+
 def test_lines_ending_in_a_carriage_return_alone(tmp_path):
     """A CSV whose lines end in CR alone (the old Mac convention) is one line to a reader of
     lines: one refusal naming the line ends (it was read as a header and no rows: "0 samples,
@@ -418,3 +444,13 @@ def test_lines_ending_in_a_carriage_return_alone(tmp_path):
         f"{i / FS!r},0.003\r".encode() for i in range(200000)))  # fmt: skip
     message = _refused(path, omega_rad_s=OMEGA)
     assert "carriage return alone" in message and message.startswith(f"trace {str(path)!r}")
+    # followed as it is written (it waited for a line break for ever), and after a header
+    # ending in LF (the rows piled up unparsed)
+    with pytest.raises(TraceError, match="carriage return alone"):
+        list(read_chunks(path, follow=True, poll_s=0.02))
+    path.write_bytes(b"time_s,resistance_ohm\n" + path.read_bytes().split(b"\r", 1)[1])
+    with pytest.raises(TraceError, match="near row 0 .*carriage return alone"):
+        list(read_chunks(path))
+    # a binary file given as CSV is named for what it is, not for a stray carriage return
+    path.write_bytes(b"PAR1\x15\r\x00\xff\xfe\n" * 10)
+    assert "carriage return" not in _refused(path, omega_rad_s=OMEGA)

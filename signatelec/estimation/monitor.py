@@ -17,7 +17,7 @@ trace (one line: wrong column, unit, speed, ...); a later one is kept as windows
 ``status`` saying why they carry no estimate. The set-up-transient trim of ``estimate`` is not
 applied: a level step is what a monitor looks for.
 
-The speed of each window: ``omega_rad_s`` (constant), the mean of a speed column over the
+The speed of each window: ``omega_rad_s`` (constant), the median of a speed column over the
 window, or, with ``track_speed``, the ball-pass frequency found in the previous window
 (the estimate searches +-1 % around the expected one, so the speed may drift by up to ~1 %
 per window).
@@ -196,7 +196,8 @@ def _estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateM
         out["interval_coverage"] = coverage
         if probs:
             top = max(out[c] for c in probs)
-            out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and row["ripple"] != "none"
+            line = row["ripple"] not in ("none", "unconfirmed")
+            out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and line
         limit = refuse_score(row["ripple"] != "none")
         if scores[i] < limit:
             row["status"] = f"out of domain (in-domain score {scores[i]:.2g} < {limit:g})"
@@ -239,8 +240,12 @@ class _Windows:
         if self.v is not None:
             self.v = np.concatenate([self.v, v])
         self.table.n_samples += t.size
-        if self.fs is None and self.t.size >= 64:
-            step = float(np.nanmedian(np.diff(self.t[:4096])))
+        steps = np.diff(self.t[:4096]) if self.fs is None else np.empty(0)
+        steps = steps[np.isfinite(steps)]  # (pairs of times read)
+        if steps.size >= 63 or (self.fs is None and self.t.size >= 4096):
+            if not steps.size:
+                raise TraceError(f"{self.source}: no time in its first {self.t.size} rows")
+            step = float(np.median(steps))
             if not step > 0.0:
                 raise TraceError(f"{self.source}: time does not increase at the start")
             self.fs = self.block_fs = 1.0 / step
@@ -287,7 +292,7 @@ class _Windows:
                 f"time does not increase at row {chunk.first_row + i} (t = {before:.9g} s, "
                 f"then {t[i]:.9g} s)"
             )
-            if before < self.first_time + BLOCK_S:  # within the first block: it is refused
+            if before < self.first_time + self._block_span():  # the first block is refused
                 raise TraceError(f"{self.source}: {what}; sort the trace or remove repeated times")
             self.table.notes.append(f"{what}: the record is read up to there")
             self.ended = True
@@ -320,12 +325,16 @@ class _Windows:
         self.pending = []
         self.table.cpu_s += time.process_time() - clock
 
+    def _block_span(self) -> float:
+        """The trace a block of windows spans, s."""
+        return (max(1, int(round(BLOCK_S / self.s.hop))) - 1) * self.s.hop + self.s.window_s
+
     def _block(self, final: bool) -> bool:
         """Estimate the next block of windows if the samples are there; False if not."""
         hop, win = self.s.hop, self.s.window_s
         n_per = max(1, int(round(BLOCK_S / hop)))
         start = self.t0 + self.next_window * hop
-        end_needed = start + (n_per - 1) * hop + win
+        end_needed = start + self._block_span()
         if not self.at.size:
             return False
         last = self.at[-1]
@@ -361,9 +370,14 @@ class _Windows:
         for row in self.pending:
             if row["start_s"] >= since:
                 row["ripple"] = "unconfirmed"
-        if self.table.parts:  # a batch filed since
-            part = self.table.parts[-1]
-            part.loc[part["start_s"] >= since, "ripple"] = "unconfirmed"
+                row["regime_confident"] = False
+        for part in reversed(self.table.parts):  # batches filed since
+            if not len(part) or part["start_s"].max() < since:
+                break
+            at = part["start_s"] >= since
+            part.loc[at, "ripple"] = "unconfirmed"
+            if "regime_confident" in part:
+                part.loc[at, "regime_confident"] = False
 
     def _measure(self, windows, fs: float) -> None:
         """Analyses of windows [(row, segment, omega)] of one length, computed together
@@ -443,8 +457,9 @@ class _Windows:
                 self.first_repair = self.first_repair or f"at t = {start:.6g} s: " + "; ".join(
                     trace.repairs
                 )
-            # the record's last blocks too: a speed gone wrong since the last screen is named
-            if self.first or final or start >= self.next_screen_s:
+            # and the record's last blocks: a speed gone wrong since the last screen is named
+            last = final and trace.duration_s >= SCREEN_S  # (a shorter screen misses lines)
+            if self.first or last or start >= self.next_screen_s:
                 given = speed_given(self.s, omega_block, start, self.at[hi - 1], self.first)
                 assessed = self.s.condition_every_s is not None
                 window = self.s.window_s if assessed else None  # a defect's line to confirm
@@ -563,8 +578,10 @@ def monitor_trace(
                     progress(table)
                 if cutter.ended:
                     break
-        except KeyboardInterrupt:
-            if not s.follow:
+        except (KeyboardInterrupt, SystemError) as exc:
+            # (Ctrl-C inside a compiled function's first load comes as a SystemError)
+            stop = exc if isinstance(exc, KeyboardInterrupt) else exc.__cause__ or exc.__context__
+            if not (s.follow and isinstance(stop, KeyboardInterrupt)):
                 raise
             table.interrupted = True
         cutter.finish()

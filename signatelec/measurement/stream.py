@@ -52,6 +52,7 @@ from signatelec.measurement.traces import (
     JITTER_TOLERANCE,
     TraceError,
     check_columns,
+    header_names,
     numeric_column,
 )
 
@@ -62,7 +63,7 @@ CHUNK_ROWS = 1 << 18
 GROUP_ROWS = 1 << 21
 PARQUET_SUFFIXES = (".parquet", ".pq")
 CSV_SUFFIXES = (".csv", ".txt", ".tsv")
-#: Longest header line read (a file whose lines end in a lone carriage return is one "line").
+#: Longest line read (a file whose lines end in a lone carriage return is one "line").
 _HEADER_BYTES = 1 << 20
 #: The path that reads CSV from standard input.
 STANDARD_INPUT = "-"
@@ -260,6 +261,7 @@ def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = 
     while True:
         pos = fh.tell() if follow else 0  # (a stream cannot tell)
         line = fh.readline(_HEADER_BYTES)
+        _check_line_ends(line, where, 0)
         if not line.endswith(b"\n"):
             if not follow:
                 if line.strip() and not line.startswith(b"#"):
@@ -279,6 +281,27 @@ def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = 
             return line
 
 
+def _check_line_ends(text: bytes, where: str, row: int) -> None:
+    """TraceError when ``text``, bytes of a CSV file not yet cut into lines (from ``row`` on),
+    shows text lines ending in a carriage return alone (the old Mac convention: the whole
+    file is one "line" to a reader of lines), or holds :data:`_HEADER_BYTES` without a line
+    break."""
+    body = text.rstrip(b"\r\n")
+    if b"\r" in body:
+        try:
+            body[:4096].decode("utf-8")
+        except UnicodeDecodeError:  # not text: its reader says why
+            return
+        raise TraceError(
+            f"{where}: cannot be read as csv near row {row} (its lines end in a carriage return "
+            "alone, the old Mac convention); convert them to LF or CRLF line ends"
+        )
+    if len(text) >= _HEADER_BYTES and b"\n" not in text:
+        raise TraceError(
+            f"{where}: cannot be read as csv near row {row} (no line break in {len(text)} bytes)"
+        )
+
+
 def _open(path, where):
     try:
         return open(path, "rb")
@@ -293,11 +316,6 @@ def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
     import pandas as pd
 
     header = _header(fh, follow, poll_s, where, idle_s)
-    if b"\r" in header.rstrip(b"\r\n"):  # one "line" holding the whole file
-        raise TraceError(
-            f"{where}: cannot be read as csv (its lines end in a carriage return alone, the "
-            "old Mac convention); convert them to LF or CRLF line ends"
-        )
     if fh.seekable():
         start = fh.tell()
         sep = _separator(header + fh.read(4096))
@@ -305,7 +323,7 @@ def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
     else:
         sep = _separator(header + fh.peek(4096)[:4096])
     try:
-        columns = pd.read_csv(io.BytesIO(header), sep=sep, nrows=0).columns
+        columns = header_names(io.BytesIO(header), sep=sep)
     except (ValueError, pd.errors.ParserError) as exc:
         # UnicodeDecodeError is a ValueError: a binary file given as CSV
         raise TraceError(f"{where}: cannot be read as csv (header line: {_first(exc)})") from None
@@ -364,6 +382,7 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
             data = pending + data
             cut = data.rfind(b"\n") + 1
             pending, data = data[cut:], data[:cut]
+            _check_line_ends(pending, where, row)
             if not data:
                 continue
         elif not follow:

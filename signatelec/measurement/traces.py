@@ -125,10 +125,10 @@ class TraceColumns(NamedTuple):
 
 def check_columns(columns, wanted, where: str, options: dict | None = None) -> None:
     """TraceError naming the first of ``wanted`` missing from ``columns``, or found more than
-    once (pandas' renaming of a CSV header's repeated name undone), and the option that
+    once (a CSV file's :func:`header_names`, not pandas' renamed columns), and the option that
     names it (``options``: column -> option; by default the time and resistance options,
     whatever the names given, in the order time, resistance, then ``--speed-column``)."""
-    columns = [_unmangled(c, columns) for c in columns]
+    columns = list(columns)
     default = ("--time-column", "--resistance-column", "--speed-column")
     for i, column in enumerate(wanted):
         if columns.count(column) > 1:
@@ -145,11 +145,13 @@ def check_columns(columns, wanted, where: str, options: dict | None = None) -> N
             )
 
 
-def _unmangled(name, columns):
-    """A column's own name where pandas renamed it: a CSV header's repeated "x" is read as
-    "x.1", "x.2", ..."""
-    base, dot, count = str(name).rpartition(".")
-    return base if dot and count.isdigit() and base in columns else name
+def header_names(source, **read_csv) -> list[str]:
+    """The names of a CSV file's header as written (a frame's columns rename a repeated "x" to
+    "x.1", "x.2", ..., which a real name may also be): its first row read as text."""
+    import pandas as pd
+
+    row = pd.read_csv(source, header=None, nrows=1, dtype=str, keep_default_na=False, **read_csv)
+    return [str(c) for c in row.iloc[0]] if len(row) else []
 
 
 def numeric_column(raw, column: str, where: str, first_row: int = 0) -> np.ndarray:
@@ -204,8 +206,12 @@ def read_trace(
         # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell)
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise TraceError(f"{where}: cannot be read as {suffix[1:]} ({text})") from None
-    check_columns(df.columns, (time_column, resistance_column), where)
-    values = [numeric_column(df[c], c, where) for c in (time_column, resistance_column)]
+    wanted = (time_column, resistance_column)
+    if suffix in (".parquet", ".pq"):
+        check_columns(df.columns, wanted, where)
+    else:
+        check_columns(header_names(p, sep=None, engine="python", comment="#"), wanted, where)
+    values = [numeric_column(df[c], c, where) for c in wanted]
     phase = df[phase_column].astype(str).to_numpy() if phase_column in df.columns else None
     return TraceColumns(values[0], values[1], phase)
 
