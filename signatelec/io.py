@@ -491,6 +491,16 @@ def _flush_tree(directory: Path) -> None:
         fsync_directory(root)
 
 
+def interruption(exc: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C (or SIGTERM, raised alike) that ``exc`` is, or that a SystemError carries: a
+    KeyboardInterrupt raised inside a compiled function's first call (numba loading it from
+    its cache) comes back as "returned a result with an exception set"; None otherwise."""
+    if isinstance(exc, KeyboardInterrupt):
+        return exc
+    stop = (exc.__cause__ or exc.__context__) if isinstance(exc, SystemError) else None
+    return stop if isinstance(stop, KeyboardInterrupt) else None
+
+
 @contextmanager
 def signals_deferred():
     """Ctrl-C and SIGTERM ignored within the block (in the main thread; signals reach only it):

@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 
 from signatelec.config.scene import Scene, SceneError
-from signatelec.io import OutputError, OutputIncomplete, check_output_dir
+from signatelec.io import OutputError, OutputIncomplete, check_output_dir, interruption
 
 EXIT_OK = 0
 EXIT_INPUT = 2
@@ -80,12 +80,9 @@ class _Group(click.Group):
         except KeyboardInterrupt as exc:
             raise Stopped(_stop_word(exc), _stop_code(exc)) from None
         except SystemError as exc:
-            # Ctrl-C inside a compiled function's first call (numba loading it from its cache)
-            # comes back as "returned a result with an exception set"
-            stop = exc.__context__ or exc.__cause__
-            if isinstance(stop, KeyboardInterrupt):
-                raise Stopped(_stop_word(stop), _stop_code(stop)) from None
-            raise
+            if (stop := interruption(exc)) is None:
+                raise
+            raise Stopped(_stop_word(stop), _stop_code(stop)) from None
 
 
 #: Command-line options of the scene parameters they override, to name them in errors.

@@ -55,6 +55,7 @@ from signatelec.estimation.monitor_settings import (
     speed_of,
     window_too_short,
 )
+from signatelec.io import interruption
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import (
@@ -579,9 +580,7 @@ def monitor_trace(
                 if cutter.ended:
                     break
         except (KeyboardInterrupt, SystemError) as exc:
-            # (Ctrl-C inside a compiled function's first load comes as a SystemError)
-            stop = exc if isinstance(exc, KeyboardInterrupt) else exc.__cause__ or exc.__context__
-            if not (s.follow and isinstance(stop, KeyboardInterrupt)):
+            if not (s.follow and interruption(exc)):
                 raise
             table.interrupted = True
         cutter.finish()

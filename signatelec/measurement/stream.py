@@ -64,7 +64,7 @@ GROUP_ROWS = 1 << 21
 PARQUET_SUFFIXES = (".parquet", ".pq")
 CSV_SUFFIXES = (".csv", ".txt", ".tsv")
 #: Longest line read (a file whose lines end in a lone carriage return is one "line").
-_HEADER_BYTES = 1 << 20
+_LINE_BYTES = 1 << 20
 #: The path that reads CSV from standard input.
 STANDARD_INPUT = "-"
 #: Most wall time spent gathering one block of a stream before it is parsed: a slow stream's
@@ -260,7 +260,7 @@ def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = 
     idle_since, size = time.monotonic(), None
     while True:
         pos = fh.tell() if follow else 0  # (a stream cannot tell)
-        line = fh.readline(_HEADER_BYTES)
+        line = fh.readline(_LINE_BYTES)
         _check_line_ends(line, where, 0)
         if not line.endswith(b"\n"):
             if not follow:
@@ -284,7 +284,7 @@ def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = 
 def _check_line_ends(text: bytes, where: str, row: int) -> None:
     """TraceError when ``text``, bytes of a CSV file not yet cut into lines (from ``row`` on),
     shows text lines ending in a carriage return alone (the old Mac convention: the whole
-    file is one "line" to a reader of lines), or holds :data:`_HEADER_BYTES` without a line
+    file is one "line" to a reader of lines), or holds :data:`_LINE_BYTES` without a line
     break."""
     body = text.rstrip(b"\r\n")
     if b"\r" in body:
@@ -296,7 +296,7 @@ def _check_line_ends(text: bytes, where: str, row: int) -> None:
             f"{where}: cannot be read as csv near row {row} (its lines end in a carriage return "
             "alone, the old Mac convention); convert them to LF or CRLF line ends"
         )
-    if len(text) >= _HEADER_BYTES and b"\n" not in text:
+    if len(text) >= _LINE_BYTES and b"\n" not in text:
         raise TraceError(
             f"{where}: cannot be read as csv near row {row} (no line break in {len(text)} bytes)"
         )
