@@ -29,10 +29,8 @@ import os
 import re
 import secrets
 import shutil
-import signal
 import socket
 import tempfile
-import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
@@ -40,6 +38,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from signatelec._version import __version__
+from signatelec.interrupts import signals_deferred
 
 if TYPE_CHECKING:  # imported where used: reading a scene file needs neither
     import pandas as pd
@@ -489,29 +488,6 @@ def _flush_tree(directory: Path) -> None:
                 finally:
                     os.close(fd)
         fsync_directory(root)
-
-
-def interruption(exc: BaseException) -> KeyboardInterrupt | None:
-    """The Ctrl-C (or SIGTERM, raised alike) that ``exc`` is, or that a SystemError carries: a
-    KeyboardInterrupt raised inside a compiled function's first call (numba loading it from
-    its cache) comes back as "returned a result with an exception set"; None otherwise."""
-    if isinstance(exc, KeyboardInterrupt):
-        return exc
-    stop = (exc.__cause__ or exc.__context__) if isinstance(exc, SystemError) else None
-    return stop if isinstance(stop, KeyboardInterrupt) else None
-
-
-@contextmanager
-def signals_deferred():
-    """Ctrl-C and SIGTERM ignored within the block (in the main thread; signals reach only it):
-    for what must not be cut short, an output's exchange and what follows a written output."""
-    main = threading.current_thread() is threading.main_thread()
-    kept = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM) if main}
-    try:
-        yield
-    finally:
-        for s, handler in kept.items():
-            signal.signal(s, handler)
 
 
 @contextmanager

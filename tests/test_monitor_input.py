@@ -21,7 +21,7 @@ from signatelec.estimation.evidence import non_overlapping, stretches_and_change
 from signatelec.estimation.monitor import MonitorSettings, monitor_trace
 from signatelec.estimation.monitor_report import qualify, qualify_alarms
 from signatelec.estimation.monitor_settings import MAX_OVERLAP
-from signatelec.io import signals_deferred
+from signatelec.interrupts import signals_deferred
 from signatelec.measurement.stream import read_chunks
 from signatelec.measurement.traces import TraceError, minimum_sample_rate_hz, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz

@@ -9,7 +9,8 @@ from pathlib import Path
 import click
 
 from signatelec.config.scene import Scene, SceneError
-from signatelec.io import OutputError, OutputIncomplete, check_output_dir, interruption
+from signatelec.interrupts import interruption
+from signatelec.io import OutputError, OutputIncomplete, check_output_dir
 
 EXIT_OK = 0
 EXIT_INPUT = 2

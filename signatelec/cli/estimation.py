@@ -12,7 +12,7 @@ from signatelec.cli.common import (
     check_writable_file,
     cli,
 )
-from signatelec.io import signals_deferred
+from signatelec.interrupts import signals_deferred
 
 
 def trace_columns(command):

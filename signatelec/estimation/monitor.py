@@ -55,7 +55,7 @@ from signatelec.estimation.monitor_settings import (
     speed_of,
     window_too_short,
 )
-from signatelec.io import interruption
+from signatelec.interrupts import interruption
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import (
