@@ -279,7 +279,7 @@ def monitor(
     from signatelec.estimation.monitor_report import COMMAND, summary_of, write_monitor
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.io import input_size_problem
-    from signatelec.measurement.stream import check_trace_file, is_standard_input
+    from signatelec.measurement.stream import check_trace_file, is_standard_input, trace_label
     from signatelec.measurement.traces import TraceError
 
     settings = MonitorSettings(
@@ -307,7 +307,7 @@ def monitor(
         raise InputError(str(exc)) from None
     problem = None if is_standard_input(trace_file) else input_size_problem(trace_file, 1 << 62)
     if problem:
-        raise InputError(f"trace {trace_file!r}: {problem}")
+        raise InputError(f"{trace_label(trace_file)}: {problem}")
     claim_output(out, COMMAND)
     try:  # before the model, whose first build takes minutes: the file, its format, its columns
         check_trace_file(trace_file, time_column, resistance_column, speed_column, follow=follow)

@@ -251,7 +251,7 @@ class _Windows:
                 raise TraceError(f"{self.source}: time does not increase at the start")
             self.fs = self.block_fs = 1.0 / step
             self.table.sample_rate_hz = self.fs
-            self.t0 = float(self.t[np.isfinite(self.t)][0])
+            self.t0 = self.first_time  # (the first time read: _in_order)
             if self.s.window_s * self.fs < 16:
                 raise TraceError(
                     f"--window {self.s.window_s:g}: {self.s.window_s * self.fs:.1f} samples at "
@@ -364,9 +364,8 @@ class _Windows:
         since, self.last_screen_s = self.last_screen_s, None
         self.table.notes.append(
             f"at t = {start:.6g} s the ball-pass line is not where the speed puts it, or is "
-            "gone: the "
-            f"windows since the last screen that found it, at t = {since:.6g} s, may have been "
-            "read at a wrong speed (ripple 'unconfirmed')"
+            f"gone: the windows since the last screen that found it, at t = {since:.6g} s, may "
+            "have been read at a wrong speed (ripple 'unconfirmed')"
         )
         for row in self.pending:
             if row["start_s"] >= since:
