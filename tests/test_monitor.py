@@ -562,9 +562,10 @@ def test_parquet_times_from_statistics(model_file, tiles, tmp_path, monkeypatch,
         frames.append(monitor_trace(path, model, MonitorSettings(omega_rad_s=OMEGA)).frame())
     pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=False, rtol=1e-12)
     status = frames[0]["status"]
-    # the dropout at 3.5 s refuses its block of 2 s (10 windows), as without statistics
-    gap = status.str.contains("no sample between t = 3.49995 s")
-    assert gap.sum() == (10 if case == "dropout" else 0)
+    # the dropout at 3.5 s takes the one window it falls in, as without statistics
+    gap = status.str.startswith("no data: no sample from t = 3.49995 to 3.50")
+    taken = [3.4] if case == "dropout" else []
+    assert frames[0].loc[gap, "start_s"].tolist() == pytest.approx(taken)
     # the slower group's resampling shortens the last window of its block
     assert status[~gap].isin(["ok", "refused: window cut short by a repair"]).all()
     assert (status == "ok").sum() >= 15
@@ -759,3 +760,43 @@ def test_a_speed_gone_wrong_between_screens_is_not_confident(
     summary = summary_of(table, settings, stretches, changes, alarms, {}, model)
     assert summary["stretches"] and not any(s["regime_confident"] for s in summary["stretches"])
     assert not any(a["confident"] for a in summary["alarms"])
+
+
+def test_a_gap_in_the_record_takes_only_its_windows(model_file, tiles, tmp_path):
+    """No sample for 30 s, then a 30 % load step: the windows the gap takes carry no estimate
+    ('no data'), the others theirs; the change is timed at the gap's end (when the new state is
+    first seen: the middle of the gap claimed a time no sample shows) and names the gap; the
+    stretch over it says how long it was not observed. A short gap (0.3 s, above the quarter
+    ball pass ``prepare_trace`` fills in) takes only the windows it touches (the block holding
+    it was refused whole)."""
+    t, r, _ = _record(tiles, [("low", 3.0), ("high", 3.0)], seed=11)
+    after = np.arange(t.size) >= int(3.0 * FS)
+    path = _write(tmp_path / "gap.parquet", np.where(after, t + 30.0, t), r)
+    out = tmp_path / "out"
+    assert run_main(["monitor", str(path), "--omega", "500", "--model", str(model_file),
+                     "--out", str(out), "--quiet"]) == 0  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    windows = pd.read_parquet(out / "windows.parquet")
+    gap = windows["status"].str.startswith("no data")
+    assert windows.loc[gap, "start_s"].min() == pytest.approx(3.0)
+    assert windows.loc[gap, "end_s"].max() == pytest.approx(33.0)
+    assert (windows.loc[~gap, "status"] == "ok").all() and (~gap).sum() == 30
+    last_before = 3.0 - 1.0 / FS
+    assert [(g["start_s"], g["end_s"]) for g in summary["gaps"]] == [
+        pytest.approx((last_before, 33.0))
+    ]
+    assert [c["time_s"] for c in summary["changes"]] == pytest.approx([33.0])
+    assert summary["changes"][0]["gap_s"] == pytest.approx([last_before, 33.0])
+    stretches = summary["stretches"]
+    assert [s["radial_load_n"] for s in stretches] == pytest.approx([5000.0, 6500.0], rel=0.03)
+    assert [s["unobserved_s"] for s in stretches] == pytest.approx([30.0, 0.0], abs=1e-3)
+    assert any("1 gap in the record" in n for n in summary["notes"]), summary["notes"]
+
+    t, r, _ = _record(tiles, [("low", 6.0)], seed=12)
+    table = _run(model_file, _write(tmp_path / "short.parquet", np.where(after, t + 0.3, t), r))
+    windows = table.frame()
+    gap = windows["status"].str.startswith("no data")
+    assert windows.loc[gap, "start_s"].tolist() == pytest.approx([3.0, 3.2])
+    assert (windows.loc[~gap, "status"] == "ok").all()
+    stretches, changes, _ = stretches_and_changes(windows, 0.2, gaps=table.gaps)
+    assert changes == [] and stretches[0]["unobserved_s"] == pytest.approx(0.3, abs=1e-3)

@@ -341,6 +341,7 @@ def monitor(
         load_threshold,
         stretch_model=model.stretch,
         faulty_model=model.faulty,
+        gaps=table.gaps,
     )
     extra = {
         "false_alarm_rate_per_hour": false_alarm_rate,

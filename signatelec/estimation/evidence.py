@@ -270,6 +270,7 @@ def stretches_and_changes(
     bias_ratio: dict | None = None,
     stretch_model=None,
     faulty_model=None,
+    gaps=None,
 ) -> tuple[list[dict], list[dict], list[dict]]:
     """(stretches, changes, alarms) of a window table (module docstring): every change point
     is a change (at ``false_alarm_per_hour`` for the whole record, shared between the load
@@ -280,7 +281,10 @@ def stretches_and_changes(
     a stretch called faulty is answered by ``faulty_model`` (the model's ``faulty``) where its
     windows lie in that model's domain (:func:`~signatelec.estimation.health.faulty_windows`;
     ``load_model`` ``faulty``), its windows' estimates combined, split where they change
-    (:func:`_answered_faulty`)."""
+    (:func:`_answered_faulty`). ``gaps``: (last time before, first time after) of each gap in
+    the record (no sample for longer than ``prepare_trace`` fills in): a change found inside one
+    is timed at its end, the first time the new state is seen, and names it (``gap_s``); each
+    stretch gives the time it spans without samples (``unobserved_s``, when ``gaps`` is given)."""
     check_settings(hop_s, false_alarm_per_hour, load_threshold)
     good, assessed = usable(windows), assessed_windows(windows)
     if good.empty and assessed.empty:
@@ -297,7 +301,7 @@ def stretches_and_changes(
     load = change_points(good, hop_s, load_rate) if len(good) else []
     load = [(k, change_time(windows, good, k), p) for k, p in load]
     cond = condition_changes(good, assessed, condition_rate)
-    found = _merged(load, cond)
+    found = [(k, _after_gap(t, gaps)[0], p, c) for k, t, p, c in _merged(load, cond)]
     rows = np.maximum.accumulate([c[0] for c in found]).tolist() if found else []
     edges = [0, *rows, len(good)]
     times = [c[1] for c in found]
@@ -338,8 +342,23 @@ def stretches_and_changes(
             a["change"] = i  # the change between stretches i and i + 1
         what = "; ".join(a["what"] for a in raised) or _described(before, after)
         changes.append({"time_s": t, "what": what, "probability": p})
+        if gap := _after_gap(t, gaps)[1]:
+            changes[-1]["gap_s"] = gap
         alarm_list.extend(raised)
+    if gaps is not None:
+        for s in stretches:
+            s["unobserved_s"] = sum(
+                max(0.0, min(b, s["end_s"]) - max(a, s["start_s"])) for a, b in gaps
+            )
     return stretches, changes, alarm_list
+
+
+def _after_gap(time_s: float, gaps) -> tuple[float, list[float] | None]:
+    """(``time_s``, or the end of the gap of ``gaps`` it lies in; that gap as [start, end])."""
+    for a, b in gaps or ():
+        if a < time_s <= b + 1e-9:
+            return b, [a, b]
+    return time_s, None
 
 
 def _within(part: pd.DataFrame, start_s: float, end_s: float) -> pd.DataFrame:

@@ -32,7 +32,6 @@ stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the outpu
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from collections.abc import Callable
@@ -43,11 +42,15 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from signatelec.estimation.analysis import analyse_windows
-from signatelec.estimation.domain import refuse_score
-from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import trace_feature_names, window_features
-from signatelec.estimation.health import assess_window, confident_faults, defect_explains
-from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
+from signatelec.estimation.health import assess_window, confident_faults
+from signatelec.estimation.models import LoadStateModel
+from signatelec.estimation.monitor_answers import (
+    SCREEN_S,
+    estimate_batch,
+    feature_columns,
+    screen_block,
+)
 from signatelec.estimation.monitor_settings import (
     MonitorSettings,
     omega_of,
@@ -56,14 +59,12 @@ from signatelec.estimation.monitor_settings import (
     window_too_short,
 )
 from signatelec.interrupts import interruption
-from signatelec.measurement.ripple import find_ripple
-from signatelec.measurement.sanity import check_level
 from signatelec.measurement.stream import (
     read_chunks,
     trace_label,
 )
 from signatelec.measurement.traces import (
-    N_HARMONICS,
+    MAX_GAP_BALL_PASSES,
     TraceError,
     prepare_trace,
 )
@@ -78,8 +79,6 @@ FOLLOW_BATCH_WINDOWS = 100
 #: Analysed windows whose features are measured together (~7 us a window against ~20 us in
 #: blocks of 10; their analyses, ~0.16 MB a window at 50 kHz, wait meanwhile).
 MEASURE_WINDOWS = 100
-#: Length of each block's ripple and level screening (the ripple search costs ~T^2).
-SCREEN_S = 0.5
 #: Trace between two screenings of the ripple (the first block is always screened): a speed
 #: gone wrong is refused within this; screening every block cost ~1.4 ms per 0.2 s window at
 #: 50 kHz, more than the window's features.
@@ -116,6 +115,7 @@ class WindowTable:
     notes: list[str] = field(default_factory=list)
     cpu_s: float = 0.0
     interrupted: bool = False
+    gaps: list[tuple[float, float]] = field(default_factory=list)  # (last time, next) around
 
     @property
     def n_windows(self) -> int:
@@ -127,39 +127,6 @@ class WindowTable:
         return pd.concat(self.parts, ignore_index=True)
 
 
-def _screen(trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=None):
-    """(ripple status, note) of a block's first SCREEN_S, or TraceError naming ``speed`` (what
-    the user gave for ``omega``: :func:`~signatelec.estimation.monitor_settings.speed_given`).
-    A later block whose first SCREEN_S shows the line elsewhere has its last SCREEN_S screened
-    too, and is refused
-    only when both do: a change of state within the screened trace joins two ripples whose
-    phases do not continue, which can move the periodogram's peak out of the tolerance (a
-    calibration record's zero-to-preload step 0.24 s into a screen put it at +0.56 %). A line
-    elsewhere that lies on a defect's line is kept (status ``defect``) when the condition is
-    assessed (``window_s``: the windows' length, None when it is not) and the condition model
-    confidently calls that very condition on the block's first window, as ``estimate`` keeps a
-    trace (:func:`~signatelec.estimation.health.defect_explains`)."""
-    n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
-    r = trace.resistance_ohm[:n]
-    note = None
-    if model.domain is not None:
-        note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
-    ripple = find_ripple(r, trace.sample_rate_hz, omega)
-    if ripple.status == "elsewhere" and not first and trace.resistance_ohm.size >= 2 * n:
-        again = find_ripple(trace.resistance_ohm[-n:], trace.sample_rate_hz, omega)
-        if again.status not in ("elsewhere", "constant"):
-            ripple = again
-    if (
-        ripple.status == "elsewhere"
-        and window_s is not None
-        and defect_explains(trace, omega, getattr(model, "condition", None), ripple, window_s, n)
-    ):
-        return "defect", note if first else None
-    if ripple.status in ("elsewhere", "constant"):
-        raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
-    return ripple.status, note if first else None
-
-
 def kept_features(model: LoadStateModel) -> tuple[str, ...]:
     """The features a window's row keeps: :data:`KEPT_FEATURES`, then the model's own (a
     stretch's mean features are what its stretch model reads) and its ``faulty`` model's (which
@@ -167,42 +134,6 @@ def kept_features(model: LoadStateModel) -> tuple[str, ...]:
     faulty = getattr(model, "faulty", None)
     extra = faulty.features if faulty is not None else ()
     return tuple(dict.fromkeys([*KEPT_FEATURES, *model.features, *extra]))
-
-
-@functools.cache
-def _feature_columns(n_harmonics: int = N_HARMONICS) -> dict[str, int]:
-    """Column of each feature in :func:`~signatelec.estimation.features.window_features`."""
-    return {name: i for i, name in enumerate(trace_feature_names(n_harmonics))}
-
-
-def _estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateModel) -> None:
-    """The model's estimates of a batch of windows (their rows of the feature table), asked
-    once, written into ``rows``."""
-    if not feats:
-        return
-    table = np.stack(feats)
-    column = _feature_columns()
-    # one thread: the compiled walk of the trees (scikit-learn's threaded one was ~10x slower
-    # on busy cores)
-    pred = model.predict_columns(table[:, [column[name] for name in model.features]])
-    scores = np.ones(len(table))
-    if model.domain is not None:
-        scores = model.domain.scores(table[:, [column[name] for name in model.domain.features]])
-    coverage = model.info.get("coverage", DEFAULT_COVERAGE)
-    probs = [c for c in pred if c.startswith("regime_probability_")]
-    names, values = list(pred), [v.tolist() for v in pred.values()]
-    for i, row in enumerate(rows):
-        out = {name: v[i] for name, v in zip(names, values, strict=True)}
-        out["in_domain_score"] = float(scores[i])
-        out["interval_coverage"] = coverage
-        if probs:
-            top = max(out[c] for c in probs)
-            line = row["ripple"] not in ("none", "unconfirmed")
-            out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and line
-        limit = refuse_score(row["ripple"] != "none")
-        if scores[i] < limit:
-            row["status"] = f"out of domain (in-domain score {scores[i]:.2g} < {limit:g})"
-        row.update(out)
 
 
 class _Windows:
@@ -213,6 +144,7 @@ class _Windows:
         self.t = np.empty(0)
         self.at = np.empty(0)  # the times the blocks are cut at (:meth:`_in_order`)
         self.first_time, self.last_time = None, -math.inf  # the first and last times read
+        self.before = None  # the last time before the next block's samples
         self.ended = False  # a time that did not increase ended the reading
         self.rate_noted = False
         self.blocks, self.repaired, self.first_repair = 0, 0, None  # blocks read, repaired
@@ -318,7 +250,7 @@ class _Windows:
         clock = time.process_time()
         self._features()
         ok = [row for row in self.pending if "_features" in row]
-        _estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
+        estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
         for row in self.pending:  # a window interrupted before its assessment has none
             row.pop("_condition", None)
         if self.pending:
@@ -348,13 +280,66 @@ class _Windows:
             end_needed = start + (n_per - 1) * hop + win
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
         hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
-        self._estimate(lo, hi, start, n_per, final)
+        flagged = self._in_gaps(lo, hi, start)
+        if not flagged:
+            self._estimate(lo, hi, start, n_per, final)
+        elif flagged[0] > 0:  # the windows before the gap, as a block of their own
+            n_per = flagged[0]
+            end = start + (n_per - 1) * hop + win
+            self._estimate(lo, int(np.searchsorted(self.at, end - 0.5 / self.fs)), start, n_per)
+        else:  # the windows the gap takes
+            n_per = next((i for i, k in enumerate(flagged) if k != i), len(flagged))
+            self._no_data(start, n_per)
         self.next_window += n_per
         keep = int(np.searchsorted(self.at, self.t0 + self.next_window * hop - 0.5 / self.fs))
+        if keep:
+            self.before = float(self.at[keep - 1])
         self.t, self.at, self.r = self.t[keep:], self.at[keep:], self.r[keep:]
         if self.v is not None:
             self.v = self.v[keep:]
         return True
+
+    def _in_gaps(self, lo: int, hi: int, start: float) -> list[int]:
+        """The windows (from the block's first) that a gap in the record takes: no sample for
+        longer than ``prepare_trace`` fills in (a quarter of a ball pass) within or next to
+        them; gaps as (last time before, first time after) go to ``table.gaps``."""
+        times = self.at[lo : hi + 1]
+        if self.before is not None:
+            times = np.concatenate([[self.before], times])
+        omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
+        if times.size < 2 or not (math.isfinite(omega) and omega > 0):
+            return []
+        limit = MAX_GAP_BALL_PASSES / expected_ball_pass_hz(omega)
+        # a record without gaps holds a sample every step: only a short count asks for steps
+        if (times[-1] - times[0]) * self.block_fs - (times.size - 1) < 0.5 * limit * self.fs:
+            return []
+        big = np.flatnonzero(np.diff(times) > limit)
+        flagged, half = set(), 0.5 / self.fs
+        for a, b in zip(times[big].tolist(), times[big + 1].tolist(), strict=True):
+            if not self.table.gaps or self.table.gaps[-1][1] < b:
+                self.table.gaps.append((a, b))
+            # from the first window whose last sample is due after a to the last that starts
+            # before b
+            due = a + 3 * half - start - self.s.window_s
+            first = max(0, math.floor(due / self.s.hop + 1e-9) + 1)
+            flagged.update(range(first, math.ceil((b - half - start) / self.s.hop - 1e-9)))
+        return sorted(flagged)
+
+    def _no_data(self, start: float, n: int) -> None:
+        """``n`` windows from ``start`` without samples enough, in a gap of the record."""
+        a, b = self.table.gaps[-1]
+        status = f"no data: no sample from t = {a:.6g} to {b:.6g} s"
+        for k in range(n):
+            t_start = start + k * self.s.hop
+            self.pending.append(
+                {
+                    "start_s": t_start,
+                    "end_s": t_start + self.s.window_s,
+                    "time_s": t_start + 0.5 * self.s.window_s,
+                    "status": status,
+                    "ripple": self.ripple,
+                }
+            )
 
     def _unconfirmed(self, start: float) -> None:
         """A screen at ``start`` found the ball-pass line away from the speed's, or none: the
@@ -410,7 +395,7 @@ class _Windows:
         rows, analyses = zip(*self.unmeasured, strict=True)
         table = window_features(analyses)
         self.unmeasured = []  # (after: a Ctrl-C while measuring leaves them to be measured)
-        column = _feature_columns(analyses[0].n_harmonics)
+        column = feature_columns(analyses[0].n_harmonics)
         names = kept_features(self.model)
         kept = table[:, [column[name] for name in names]].tolist()
         snr = table[:, column["harmonic_snr"]].tolist()
@@ -464,7 +449,7 @@ class _Windows:
                 assessed = self.s.condition_every_s is not None
                 window = self.s.window_s if assessed else None  # a defect's line to confirm
                 try:
-                    ripple, note = _screen(
+                    ripple, note = screen_block(
                         trace, omega_block, self.model, self.first, given, window
                     )
                 except TraceError:

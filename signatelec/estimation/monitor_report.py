@@ -174,6 +174,16 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
         settings.window_s,
         faulty.info.get("ranges") if faulty is not None else None,
     )
+    if table.gaps:
+        longest = max(table.gaps, key=lambda g: g[1] - g[0])
+        notes.append(
+            f"{len(table.gaps)} gap{'s' if len(table.gaps) > 1 else ''} in the record (no "
+            "sample for longer than a quarter of a ball pass), "
+            f"{sum(b - a for a, b in table.gaps):.6g} s in all, the longest from t = "
+            f"{longest[0]:.6g} to {longest[1]:.6g} s: the windows there carry no estimate "
+            "('no data'), a change found across a gap is timed at its end ('gap_s'), and a "
+            "stretch over one was not observed there ('unobserved_s')"
+        )
     qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]
@@ -198,6 +208,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 **extra,
             },
             "notes": notes,
+            "gaps": [{"start_s": a, "end_s": b} for a, b in table.gaps],
             "analysis_cpu_s": table.cpu_s,
             "stretches": stretches,
             "changes": changes,
@@ -230,6 +241,10 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     fig = new_figure(9.0, 8.0)
     axes = fig.subplots(3, 1, sharex=True)
     ok = windows[windows["status"] == "ok"] if "status" in windows else windows
+    gaps = [(g["start_s"], g["end_s"]) for g in summary.get("gaps", ())]
+    if gaps and "time_s" in ok:  # a row of NaN in each gap breaks the lines there
+        middle = pd.DataFrame({"time_s": [0.5 * (a + b) for a, b in gaps]})
+        ok = pd.concat([ok, middle], ignore_index=True).sort_values("time_s")
     t = ok["time_s"].to_numpy() if "time_s" in ok else np.empty(0)
     ax = axes[0]
     if t.size:
@@ -302,6 +317,14 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     ax.set_ylabel("regime probability")
     ax.set_xlabel("time (s)")
     _legend(ax)
+    for a in axes if gaps else ():  # the gaps shaded, one collection per axis
+        spans = [[(lo, 0), (lo, 1), (hi, 1), (hi, 0)] for lo, hi in gaps]
+        a.add_collection(
+            PolyCollection(spans, facecolors="0.9", lw=0, transform=a.get_xaxis_transform())
+        )
+    if gaps:
+        axes[0].plot([], [], color="0.9", lw=6, label="no data")
+        _legend(axes[0])
     # the alarms as one collection of vertical lines per axis and colour (axvline's spans)
     load = [alarm["time_s"] for alarm in summary["alarms"] if alarm["kind"] == "load"]
     other = [alarm["time_s"] for alarm in summary["alarms"] if alarm["kind"] != "load"]

@@ -1,0 +1,93 @@
+"""What the monitor (:mod:`signatelec.estimation.monitor`) asks about a block: its ripple and
+level screen (the first block's first :data:`SCREEN_S`, then one block's every
+``SCREEN_EVERY_S``, screened as ``estimate`` screens a trace:
+:func:`~signatelec.measurement.sanity.check_level`,
+:func:`~signatelec.measurement.ripple.find_ripple`), and the load-state model's estimates of a
+batch of its windows."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from signatelec.estimation.domain import refuse_score
+from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
+from signatelec.estimation.features import trace_feature_names
+from signatelec.estimation.health import defect_explains
+from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
+from signatelec.measurement.ripple import find_ripple
+from signatelec.measurement.sanity import check_level
+from signatelec.measurement.traces import N_HARMONICS, TraceError
+
+#: Length of each block's ripple and level screening (the ripple search costs ~T^2).
+SCREEN_S = 0.5
+
+
+def screen_block(trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=None):
+    """(ripple status, note) of a block's first :data:`SCREEN_S`, or TraceError naming ``speed``
+    (what the user gave for ``omega``: :func:`~signatelec.estimation.monitor_settings.
+    speed_given`). A later block whose first :data:`SCREEN_S` shows the line elsewhere has its
+    last :data:`SCREEN_S` screened too, and is refused
+    only when both do: a change of state within the screened trace joins two ripples whose
+    phases do not continue, which can move the periodogram's peak out of the tolerance (a
+    calibration record's zero-to-preload step 0.24 s into a screen put it at +0.56 %). A line
+    elsewhere that lies on a defect's line is kept (status ``defect``) when the condition is
+    assessed (``window_s``: the windows' length, None when it is not) and the condition model
+    confidently calls that very condition on the block's first window, as ``estimate`` keeps a
+    trace (:func:`~signatelec.estimation.health.defect_explains`)."""
+    n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
+    r = trace.resistance_ohm[:n]
+    note = None
+    if model.domain is not None:
+        note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
+    ripple = find_ripple(r, trace.sample_rate_hz, omega)
+    if ripple.status == "elsewhere" and not first and trace.resistance_ohm.size >= 2 * n:
+        again = find_ripple(trace.resistance_ohm[-n:], trace.sample_rate_hz, omega)
+        if again.status not in ("elsewhere", "constant"):
+            ripple = again
+    if (
+        ripple.status == "elsewhere"
+        and window_s is not None
+        and defect_explains(trace, omega, getattr(model, "condition", None), ripple, window_s, n)
+    ):
+        return "defect", note if first else None
+    if ripple.status in ("elsewhere", "constant"):
+        raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
+    return ripple.status, note if first else None
+
+
+@functools.cache
+def feature_columns(n_harmonics: int = N_HARMONICS) -> dict[str, int]:
+    """Column of each feature in :func:`~signatelec.estimation.features.window_features`."""
+    return {name: i for i, name in enumerate(trace_feature_names(n_harmonics))}
+
+
+def estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateModel) -> None:
+    """The model's estimates of a batch of windows (their rows of the feature table), asked
+    once, written into ``rows``."""
+    if not feats:
+        return
+    table = np.stack(feats)
+    column = feature_columns()
+    # one thread: the compiled walk of the trees (scikit-learn's threaded one was ~10x slower
+    # on busy cores)
+    pred = model.predict_columns(table[:, [column[name] for name in model.features]])
+    scores = np.ones(len(table))
+    if model.domain is not None:
+        scores = model.domain.scores(table[:, [column[name] for name in model.domain.features]])
+    coverage = model.info.get("coverage", DEFAULT_COVERAGE)
+    probs = [c for c in pred if c.startswith("regime_probability_")]
+    names, values = list(pred), [v.tolist() for v in pred.values()]
+    for i, row in enumerate(rows):
+        out = {name: v[i] for name, v in zip(names, values, strict=True)}
+        out["in_domain_score"] = float(scores[i])
+        out["interval_coverage"] = coverage
+        if probs:
+            top = max(out[c] for c in probs)
+            line = row["ripple"] not in ("none", "unconfirmed")
+            out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and line
+        limit = refuse_score(row["ripple"] != "none")
+        if scores[i] < limit:
+            row["status"] = f"out of domain (in-domain score {scores[i]:.2g} < {limit:g})"
+        row.update(out)
