@@ -256,10 +256,10 @@ def test_windows_analysed_together_equal_one_by_one(clean_signal):
 
 
 def test_analysis_does_not_depend_on_the_one_before(clean_signal):
-    """The ball-pass search pads each window with zeros in a buffer kept from one call to the
-    next: a window of 1998 samples (padded to 8000, as 2000 are) analysed after windows of 2000
-    gives the features it gets after a trace of another padded length (a fresh buffer), to the
-    last bit, in a batch of rows (one transform) and alone."""
+    """What the analysis keeps from one call to the next (the Hann windows and DFT tables of a
+    length) does not touch a window's numbers: a window of 1998 samples (padded to 8000 in the
+    search, as 2000 are) analysed after windows of 2000 gives the features it gets after a
+    trace of another padded length, to the last bit, in a batch of rows and alone."""
     from signatelec.estimation.analysis import analyse_windows
 
     fs = 50000.0
