@@ -16,7 +16,8 @@ Repaired (each repair is listed in :attr:`Trace.repairs`):
   the ends: cut off;
 - rows with a missing time: dropped (at most ``MAX_BAD_FRACTION``);
 - non-uniform sampling (jitter above ``JITTER_TOLERANCE`` of the median step, or dropped
-  samples): linear interpolation onto a uniform grid at the median rate (gaps as above).
+  samples): linear interpolation onto a uniform grid at the median rate (gaps as above); steps
+  that spread by at most ``UNIFORM_STEPS`` are one step rounded, their mean the step.
 
 Refused:
 
@@ -89,6 +90,10 @@ MIN_LEVEL_OHM = 1e-9
 MAX_GAP_BALL_PASSES = 0.25
 #: Relative jitter of the time step below which the sampling counts as uniform.
 JITTER_TOLERANCE = 1e-3
+#: Spread of the time steps (largest less smallest, relative) within which they are one clock's
+#: step rounded: times rounded to doubles spread the steps of a uniform clock by ~2 ulp(t) / dt
+#: (5e-8 at an hour and 50 kHz), and their mean, the span over the steps, is then the step.
+UNIFORM_STEPS = 1e-6
 
 
 class TraceError(ValueError):
@@ -224,6 +229,16 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
 
 
+def _step(t: np.ndarray, dt: np.ndarray, dt_min: float, dt_max: float) -> float:
+    """The sampling step of times ``t`` (steps ``dt``, their extremes): the span over the steps
+    where they spread by at most :data:`UNIFORM_STEPS`, else their median (robust to a few
+    dropped samples; ~0.4 ms for the 100000 steps of a monitored block, ~10x the span's).
+    ``dt`` is reordered (its extremes are read before; a gap's row is found from ``t``)."""
+    if dt_max - dt_min <= UNIFORM_STEPS * dt_min:
+        return (float(t[-1]) - float(t[0])) / dt.size
+    return float(np.median(dt, overwrite_input=True))
+
+
 def prepare_trace(
     time_s,
     resistance_ohm,
@@ -284,8 +299,7 @@ def prepare_trace(
             f"{where}: time does not increase at row {i + 1} (t = {t[i]:.9g} s, then "
             f"{t[i + 1]:.9g} s); sort the trace or remove repeated times"
         )
-    # in place: the order of dt is not read again (its extremes are; a gap's row from t)
-    step = float(np.median(dt, overwrite_input=True))
+    step = _step(t, dt, dt_min, dt_max)
     fs = 1.0 / step
     f_bp = expected_ball_pass_hz(omega_rad_s)
     max_gap_s = MAX_GAP_BALL_PASSES / f_bp
@@ -348,12 +362,11 @@ def prepare_trace(
                 else (f"{int(bad.sum()) - n_open} missing and {n_open} open-circuit samples")
             )
             repairs.append(f"interpolated {what}")
-    # uniform sampling (the time steps and their median change only if the ends were cut: a
-    # median of a long block's steps is a good part of a monitored window's cost)
+    # uniform sampling (the time steps and their step change only if the ends were cut)
     if cut:
         dt = np.diff(t)
         dt_min, dt_max = float(dt.min()), float(dt.max())
-        step = float(np.median(dt, overwrite_input=True))
+        step = _step(t, dt, dt_min, dt_max)
         fs = 1.0 / step
     if dt_max > max_gap_s:
         i = int(np.flatnonzero(np.diff(t) > max_gap_s)[0])
