@@ -563,7 +563,7 @@ def test_parquet_times_from_statistics(model_file, tiles, tmp_path, monkeypatch,
     pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=False, rtol=1e-12)
     status = frames[0]["status"]
     # the dropout at 3.5 s takes the one window it falls in, as without statistics
-    gap = status.str.startswith("no data: no sample from t = 3.49995 to 3.50")
+    gap = status.str.startswith("no data: no sample from t = 3.499950 to 3.50")
     taken = [3.4] if case == "dropout" else []
     assert frames[0].loc[gap, "start_s"].tolist() == pytest.approx(taken)
     # the slower group's resampling shortens the last window of its block
@@ -800,3 +800,37 @@ def test_a_gap_in_the_record_takes_only_its_windows(model_file, tiles, tmp_path)
     assert (windows.loc[~gap, "status"] == "ok").all()
     stretches, changes, _ = stretches_and_changes(windows, 0.2, gaps=table.gaps)
     assert changes == [] and stretches[0]["unobserved_s"] == pytest.approx(0.3, abs=1e-3)
+
+
+def test_gaps_are_named_and_told_from_a_jump_or_a_slow_clock(model_file, tiles, tmp_path):
+    """Three gaps within one block: each window names the gap it lies in. A clock that jumps by
+    1e6 s is no pause: the reading ends there with a note (5 million windows of no data took
+    7.6 GB). A rate that falls below what the speed needs is no train of gaps: its blocks are
+    refused as ``prepare_trace`` refuses them (every step had been a gap: 3.6 million of them
+    in an hour at 1 kHz)."""
+    t, r, _ = _record(tiles, [("low", 6.0)], seed=13)
+    shifted = t.copy()
+    for at, shift in ((4.1, 0.05), (4.5, 0.02), (5.3, 0.6)):
+        shifted[t >= at] += shift
+    windows = _run(model_file, _write(tmp_path / "three.parquet", shifted, r)).frame()
+    named = windows.loc[windows["status"].str.startswith("no data"), ["start_s", "status"]]
+    # the gaps: 4.09995-4.15, 4.54995-4.57 and 5.36995-5.97 s
+    assert named["start_s"].tolist() == pytest.approx([4.0, 4.4, 5.2, 5.4, 5.6, 5.8])
+    ends = ["4.150000", "4.570000", *["5.970000"] * 4]
+    named_ends = [status.rsplit(" to ", 1)[1] for status in named["status"]]
+    assert named_ends == [f"{e} s" for e in ends], named["status"].tolist()
+
+    jumped = np.where(t >= 3.0, t + 1e6, t)
+    table = _run(model_file, _write(tmp_path / "jump.parquet", jumped, r))
+    windows = table.frame()
+    assert windows["end_s"].max() == pytest.approx(3.0) and (windows["status"] == "ok").all()
+    assert any("the record is read up to there" in n for n in table.notes), table.notes
+    assert table.gaps == []
+
+    slow = np.arange(t.size) < int(3.0 * FS)
+    keep = slow | (np.arange(t.size) % 50 == 0)  # 400 Hz after 3 s
+    table = _run(model_file, _write(tmp_path / "slow.parquet", t[keep], r[keep]))
+    windows = table.frame()
+    assert table.gaps == []
+    late = windows[windows["start_s"] >= 4.0]
+    assert len(late) and late["status"].str.contains("below the").all(), late["status"]

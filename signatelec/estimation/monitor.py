@@ -57,17 +57,11 @@ from signatelec.estimation.monitor_settings import (
     speed_given,
     speed_of,
     window_too_short,
+    windows_in_gaps,
 )
 from signatelec.interrupts import interruption
-from signatelec.measurement.stream import (
-    read_chunks,
-    trace_label,
-)
-from signatelec.measurement.traces import (
-    MAX_GAP_BALL_PASSES,
-    TraceError,
-    prepare_trace,
-)
+from signatelec.measurement.stream import read_chunks, trace_label
+from signatelec.measurement.traces import MAX_GAP_BALL_PASSES, TraceError, prepare_trace
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Trace per block of windows: repaired and screened together.
@@ -97,6 +91,10 @@ KEPT_FEATURES = (
 #: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
 #: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
 TRACK_MIN_SNR = 25.0
+#: Most windows a gap in the record takes: a longer one ends the reading there, a clock that
+#: jumped (a day at a hop of 0.2 s is 432000 windows, ~0.5 GB of the run's memory; a record
+#: paused for days is better cut in two).
+MAX_GAP_WINDOWS = 1_000_000
 #: Relative change of a block's sample rate from the first block's that the notes report (a
 #: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
 RATE_CHANGE = 0.05
@@ -280,16 +278,17 @@ class _Windows:
             end_needed = start + (n_per - 1) * hop + win
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
         hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
-        flagged = self._in_gaps(lo, hi, start)
-        if not flagged:
+        taken = self._in_gaps(lo, hi, start, n_per)
+        if not taken:
             self._estimate(lo, hi, start, n_per, final)
-        elif flagged[0] > 0:  # the windows before the gap, as a block of their own
-            n_per = flagged[0]
+        elif taken[0][0] > 0:  # the windows before the gap, as a block of their own
+            n_per = taken[0][0]
             end = start + (n_per - 1) * hop + win
             self._estimate(lo, int(np.searchsorted(self.at, end - 0.5 / self.fs)), start, n_per)
-        else:  # the windows the gap takes
-            n_per = next((i for i, k in enumerate(flagged) if k != i), len(flagged))
-            self._no_data(start, n_per)
+        else:  # the windows the gaps take (none beyond the record's last sample)
+            n_per = self._no_data(start, taken, n_per if final else None)
+            if not n_per:
+                return True  # the reading ended at the gap
         self.next_window += n_per
         keep = int(np.searchsorted(self.at, self.t0 + self.next_window * hop - 0.5 / self.fs))
         if keep:
@@ -299,10 +298,9 @@ class _Windows:
             self.v = self.v[keep:]
         return True
 
-    def _in_gaps(self, lo: int, hi: int, start: float) -> list[int]:
-        """The windows (from the block's first) that a gap in the record takes: no sample for
-        longer than ``prepare_trace`` fills in (a quarter of a ball pass) within or next to
-        them; gaps as (last time before, first time after) go to ``table.gaps``."""
+    def _in_gaps(self, lo: int, hi: int, start: float, n_per: int) -> list[tuple]:
+        """:func:`~signatelec.estimation.monitor_settings.windows_in_gaps` of the block's
+        samples and the one before them."""
         times = self.at[lo : hi + 1]
         if self.before is not None:
             times = np.concatenate([[self.before], times])
@@ -310,36 +308,53 @@ class _Windows:
         if times.size < 2 or not (math.isfinite(omega) and omega > 0):
             return []
         limit = MAX_GAP_BALL_PASSES / expected_ball_pass_hz(omega)
-        # a record without gaps holds a sample every step: only a short count asks for steps
-        if (times[-1] - times[0]) * self.block_fs - (times.size - 1) < 0.5 * limit * self.fs:
-            return []
-        big = np.flatnonzero(np.diff(times) > limit)
-        flagged, half = set(), 0.5 / self.fs
-        for a, b in zip(times[big].tolist(), times[big + 1].tolist(), strict=True):
+        return windows_in_gaps(times, limit, start, self.s, self.fs, n_per)
+
+    def _no_data(self, start: float, taken: list[tuple], most: int | None) -> int:
+        """File the windows from ``start`` that the first gaps of ``taken`` (:meth:`_in_gaps`)
+        take, each with the gap it lies in (at most ``most``), as status "no data"; how many.
+        A gap of more than :data:`MAX_GAP_WINDOWS` ends the reading there, with a note (a
+        clock that jumped), and files none."""
+        run = []
+        for first, end, gap in taken:
+            if run and first > run[-1][1]:
+                break
+            run.append((max(first, run[-1][1] if run else 0), end, gap))
+        n = run[-1][1] if most is None else min(run[-1][1], most)
+        if n > MAX_GAP_WINDOWS:
+            a, b = run[-1][2]
+            self.table.notes.append(
+                f"no sample from t = {a:.6f} to {b:.6f} s, more than {MAX_GAP_WINDOWS} "
+                "windows: the record is read up to there (a clock that jumped?)"
+            )
+            keep = int(np.searchsorted(self.at, a, side="right"))
+            self.t, self.at, self.r = self.t[:keep], self.at[:keep], self.r[:keep]
+            self.v = None if self.v is None else self.v[:keep]
+            self.ended, self.last_time = True, a
+            self.table.duration_s = a - self.t0 + 1.0 / self.fs
+            return 0
+        self.flush()  # the rows in time order, the gap's as one frame (a day: 432000 rows)
+        hop, win = self.s.hop, self.s.window_s
+        for first, end, (a, b) in run:
+            end = min(end, n)
+            if end <= first:
+                continue
             if not self.table.gaps or self.table.gaps[-1][1] < b:
                 self.table.gaps.append((a, b))
-            # from the first window whose last sample is due after a to the last that starts
-            # before b
-            due = a + 3 * half - start - self.s.window_s
-            first = max(0, math.floor(due / self.s.hop + 1e-9) + 1)
-            flagged.update(range(first, math.ceil((b - half - start) / self.s.hop - 1e-9)))
-        return sorted(flagged)
-
-    def _no_data(self, start: float, n: int) -> None:
-        """``n`` windows from ``start`` without samples enough, in a gap of the record."""
-        a, b = self.table.gaps[-1]
-        status = f"no data: no sample from t = {a:.6g} to {b:.6g} s"
-        for k in range(n):
-            t_start = start + k * self.s.hop
-            self.pending.append(
-                {
-                    "start_s": t_start,
-                    "end_s": t_start + self.s.window_s,
-                    "time_s": t_start + 0.5 * self.s.window_s,
-                    "status": status,
-                    "ripple": self.ripple,
-                }
+            starts = start + np.arange(first, end) * hop
+            status = f"no data: no sample from t = {a:.6f} to {b:.6f} s"
+            self.table.parts.append(
+                pd.DataFrame(
+                    {
+                        "start_s": starts,
+                        "end_s": starts + win,
+                        "time_s": starts + 0.5 * win,
+                        "status": status,
+                        "ripple": self.ripple,
+                    }
+                )
             )
+        return n
 
     def _unconfirmed(self, start: float) -> None:
         """A screen at ``start`` found the ball-pass line away from the speed's, or none: the

@@ -180,7 +180,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
             f"{len(table.gaps)} gap{'s' if len(table.gaps) > 1 else ''} in the record (no "
             "sample for longer than a quarter of a ball pass), "
             f"{sum(b - a for a, b in table.gaps):.6g} s in all, the longest from t = "
-            f"{longest[0]:.6g} to {longest[1]:.6g} s: the windows there carry no estimate "
+            f"{longest[0]:.6f} to {longest[1]:.6f} s: the windows there carry no estimate "
             "('no data'), a change found across a gap is timed at its end ('gap_s'), and a "
             "stretch over one was not observed there ('unobserved_s')"
         )

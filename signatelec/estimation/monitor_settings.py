@@ -149,3 +149,22 @@ def speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: 
     if settings.track_speed and not first:
         return f"the speed tracked from the ball-pass line, {omega:g} rad/s (--track-speed)"
     return None
+
+
+def windows_in_gaps(times, limit_s: float, start_s: float, settings, fs: float, n_per: int):
+    """(first, end, (last time before, first time after)) of the windows (counted from the one
+    starting at ``start_s``; ``settings``' length and hop) that each gap in ``times`` takes, a
+    gap being no sample for longer than ``limit_s`` (what ``prepare_trace`` fills in: a
+    quarter of a ball pass): from the first window whose last sample is due after the gap's
+    start to the last starting before its end; none when the gaps outnumber the ``n_per``
+    windows (a rate too low for the speed, which ``prepare_trace`` refuses)."""
+    big = np.flatnonzero(np.diff(times) > limit_s)
+    if big.size > n_per:
+        return []
+    taken, half, hop = [], 0.5 / fs, settings.hop
+    for a, b in zip(times[big].tolist(), times[big + 1].tolist(), strict=True):
+        first = max(0, math.floor((a + 3 * half - start_s - settings.window_s) / hop) + 1)
+        end = math.ceil((b - half - start_s) / hop - 1e-9)
+        if end > first:
+            taken.append((first, end, (a, b)))
+    return taken
