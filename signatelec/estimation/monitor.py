@@ -61,7 +61,13 @@ from signatelec.estimation.monitor_settings import (
 )
 from signatelec.interrupts import interruption
 from signatelec.measurement.stream import read_chunks, trace_label
-from signatelec.measurement.traces import MAX_GAP_BALL_PASSES, TraceError, prepare_trace
+from signatelec.measurement.traces import (
+    MAX_GAP_BALL_PASSES,
+    TraceError,
+    prepare_trace,
+    rounded_uniform,
+    time_text,
+)
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Trace per block of windows: repaired and screened together.
@@ -91,9 +97,8 @@ KEPT_FEATURES = (
 #: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
 #: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
 TRACK_MIN_SNR = 25.0
-#: Most windows a gap in the record takes: a longer one ends the reading there, a clock that
-#: jumped (a day at a hop of 0.2 s is 432000 windows, ~0.5 GB of the run's memory; a record
-#: paused for days is better cut in two).
+#: Most windows a gap in the record takes: a longer one (a clock jump) ends the reading there (a
+#: day at a hop of 0.2 s is 432000 windows, ~0.5 GB of the run's memory).
 MAX_GAP_WINDOWS = 1_000_000
 #: Relative change of a block's sample rate from the first block's that the notes report (a
 #: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
@@ -142,7 +147,7 @@ class _Windows:
         self.t = np.empty(0)
         self.at = np.empty(0)  # the times the blocks are cut at (:meth:`_in_order`)
         self.first_time, self.last_time = None, -math.inf  # the first and last times read
-        self.before = None  # the last time before the next block's samples
+        self.before = math.nan  # the last time before the next block's samples
         self.ended = False  # a time that did not increase ended the reading
         self.rate_noted = False
         self.blocks, self.repaired, self.first_repair = 0, 0, None  # blocks read, repaired
@@ -176,7 +181,9 @@ class _Windows:
         if steps.size >= 63 or (self.fs is None and self.t.size >= 4096):
             if not steps.size:
                 raise TraceError(f"{self.source}: no time in its first {self.t.size} rows")
-            step = float(np.median(steps))
+            head = self.t[: steps.size + 1]  # (its steps consecutive when no time is missing)
+            uniform = np.isfinite(head).all() and rounded_uniform(head, steps.min(), steps.max())
+            step = (head[-1] - head[0]) / steps.size if uniform else float(np.median(steps))
             if not step > 0.0:
                 raise TraceError(f"{self.source}: time does not increase at the start")
             self.fs = self.block_fs = 1.0 / step
@@ -301,9 +308,7 @@ class _Windows:
     def _in_gaps(self, lo: int, hi: int, start: float, n_per: int) -> list[tuple]:
         """:func:`~signatelec.estimation.monitor_settings.windows_in_gaps` of the block's
         samples and the one before them."""
-        times = self.at[lo : hi + 1]
-        if self.before is not None:
-            times = np.concatenate([[self.before], times])
+        times = np.concatenate([[self.before], self.at[lo : hi + 1]])
         omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
         if times.size < 2 or not (math.isfinite(omega) and omega > 0):
             return []
@@ -324,8 +329,8 @@ class _Windows:
         if n > MAX_GAP_WINDOWS:
             a, b = run[-1][2]
             self.table.notes.append(
-                f"no sample from t = {a:.6f} to {b:.6f} s, more than {MAX_GAP_WINDOWS} "
-                "windows: the record is read up to there (a clock that jumped?)"
+                f"no sample from t = {time_text(a)} to {time_text(b)} s, more than "
+                f"{MAX_GAP_WINDOWS} windows: the record is read up to there (a clock jump?)"
             )
             keep = int(np.searchsorted(self.at, a, side="right"))
             self.t, self.at, self.r = self.t[:keep], self.at[:keep], self.r[:keep]
@@ -335,14 +340,11 @@ class _Windows:
             return 0
         self.flush()  # the rows in time order, the gap's as one frame (a day: 432000 rows)
         hop, win = self.s.hop, self.s.window_s
-        for first, end, (a, b) in run:
-            end = min(end, n)
-            if end <= first:
-                continue
+        for first, end, (a, b) in [(f, min(e, n), g) for f, e, g in run if min(e, n) > f]:
             if not self.table.gaps or self.table.gaps[-1][1] < b:
                 self.table.gaps.append((a, b))
             starts = start + np.arange(first, end) * hop
-            status = f"no data: no sample from t = {a:.6f} to {b:.6f} s"
+            status = f"no data: no sample from t = {time_text(a)} to {time_text(b)} s"
             self.table.parts.append(
                 pd.DataFrame(
                     {
@@ -363,9 +365,9 @@ class _Windows:
         monitor_report.qualify`), with a note."""
         since, self.last_screen_s = self.last_screen_s, None
         self.table.notes.append(
-            f"at t = {start:.6g} s the ball-pass line is not where the speed puts it, or is "
-            f"gone: the windows since the last screen that found it, at t = {since:.6g} s, may "
-            "have been read at a wrong speed (ripple 'unconfirmed')"
+            f"at t = {time_text(start)} s the ball-pass line is not where the speed puts it, or "
+            "is gone: the windows since the last screen that found it, at t = "
+            f"{time_text(since)} s, may have been read at a wrong speed (ripple 'unconfirmed')"
         )
         for row in self.pending:
             if row["start_s"] >= since:
@@ -433,7 +435,7 @@ class _Windows:
         keys, note = assess_window(segment, fs, omega, named, self.model.condition, analysis)
         row.update(keys)
         if note and not self.condition_noted:
-            self.table.notes.append(f"at t = {row['start_s']:.6g} s: {note}")
+            self.table.notes.append(f"at t = {time_text(row['start_s'])} s: {note}")
             self.condition_noted = True
 
     def _estimate(self, lo, hi, start, n_per, final=False) -> None:
@@ -441,7 +443,7 @@ class _Windows:
         self.blocks += 1
         speed = None if self.v is None else self.v[lo:hi]
         omega_block = omega_of(self.s, speed, self.tracked)
-        where = f"{self.source} at t = {start:.6g} s"
+        where = f"{self.source} at t = {time_text(start)} s"
         rows, status, ripple = [], "ok", "unchecked"
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
@@ -454,8 +456,8 @@ class _Windows:
             )
             if trace.repairs:
                 self.repaired += 1
-                self.first_repair = self.first_repair or f"at t = {start:.6g} s: " + "; ".join(
-                    trace.repairs
+                self.first_repair = (
+                    self.first_repair or f"at t = {time_text(start)} s: " + "; ".join(trace.repairs)
                 )
             # and the record's last blocks: a speed gone wrong since the last screen is named
             last = final and trace.duration_s >= SCREEN_S  # (a shorter screen misses lines)
@@ -488,7 +490,7 @@ class _Windows:
         fs = self.fs if trace is None else trace.sample_rate_hz
         if abs(fs / self.fs - 1.0) > RATE_CHANGE and not self.rate_noted:
             self.table.notes.append(
-                f"at t = {start:.6g} s: sampled at {fs:.6g} Hz, the record's first block at "
+                f"at t = {time_text(start)} s: sampled at {fs:.6g} Hz, the record's first block at "
                 f"{self.fs:.6g} Hz; each block's windows are cut at its own rate"
             )
             self.rate_noted = True

@@ -26,6 +26,7 @@ import pandas as pd
 
 from signatelec._version import __version__
 from signatelec.config.constraints import HEALTHY
+from signatelec.measurement.traces import time_text
 
 FILES = ("windows.parquet", "summary.json", "monitor.png")
 COMMAND = "monitor"
@@ -131,7 +132,9 @@ def qualify(
                     "bearings (no faulty model, or no window in its domain), the load state is "
                     "an extrapolation"
                 )
-        notes += [f"stretch {s['start_s']:.6g}-{s['end_s']:.6g} s: {w}" for w in warnings]
+        notes += [
+            f"stretch {time_text(s['start_s'])}-{time_text(s['end_s'])} s: {w}" for w in warnings
+        ]
         if long_window:
             warnings.append(long_window)
         s["warnings"] = warnings
@@ -180,9 +183,9 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
             f"{len(table.gaps)} gap{'s' if len(table.gaps) > 1 else ''} in the record (no "
             "sample for longer than a quarter of a ball pass), "
             f"{sum(b - a for a, b in table.gaps):.6g} s in all, the longest from t = "
-            f"{longest[0]:.6f} to {longest[1]:.6f} s: the windows there carry no estimate "
-            "('no data'), a change found across a gap is timed at its end ('gap_s'), and a "
-            "stretch over one was not observed there ('unobserved_s')"
+            f"{time_text(longest[0])} to {time_text(longest[1])} s: the windows there carry no "
+            "estimate ('no data'), a change found across a gap is timed at its end ('gap_s'), "
+            "and a stretch over one was not observed there ('unobserved_s')"
         )
     qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)

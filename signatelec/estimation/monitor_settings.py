@@ -11,7 +11,7 @@ import numpy as np
 
 from signatelec.estimation.health import CONDITION_EVERY_S
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
-from signatelec.measurement.traces import MIN_BALL_PASSES, TraceError
+from signatelec.measurement.traces import MIN_BALL_PASSES, TraceError, time_text
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Default window and hop, s: 200 ms windows are the longest of the training windows
@@ -144,7 +144,7 @@ def speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: 
     if settings.speed_column is not None:
         return (
             f"--speed-column {settings.speed_column!r} (its median {omega:g} rad/s over "
-            f"{start_s:.6g}-{end_s:.6g} s)"
+            f"{time_text(start_s)}-{time_text(end_s)} s)"
         )
     if settings.track_speed and not first:
         return f"the speed tracked from the ball-pass line, {omega:g} rad/s (--track-speed)"
