@@ -825,7 +825,7 @@ def test_gaps_are_named_and_told_from_a_jump_or_a_slow_clock(model_file, tiles, 
     windows = table.frame()
     assert windows["end_s"].max() == pytest.approx(3.0) and (windows["status"] == "ok").all()
     assert any("the record is read up to there" in n for n in table.notes), table.notes
-    assert table.gaps == []
+    assert table.gaps == [] and table.n_samples == int(3.0 * FS)
 
     slow = np.arange(t.size) < int(3.0 * FS)
     keep = slow | (np.arange(t.size) % 50 == 0)  # 400 Hz after 3 s

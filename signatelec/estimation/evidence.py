@@ -326,7 +326,7 @@ def stretches_and_changes(
             last = i == len(edges) - 2
             end = float(windows["end_s"].max()) if last else bounds[i + 1]
             pieces, inner = _answered_faulty(
-                s, windows, end, faulty_model, (load_rate, answered), bias_ratio
+                s, windows, end, faulty_model, (load_rate, answered), bias_ratio, gaps
             )
             stretches += pieces
             found += [(0, t, p, False) for t, p in inner]
@@ -369,7 +369,7 @@ def _within(part: pd.DataFrame, start_s: float, end_s: float) -> pd.DataFrame:
 
 
 def _answered_faulty(
-    stretch: dict, windows: pd.DataFrame, end_s: float, model, rate: tuple, bias_ratio
+    stretch: dict, windows: pd.DataFrame, end_s: float, model, rate: tuple, bias_ratio, gaps=None
 ) -> tuple[list[dict], list[tuple[float, float]]]:
     """A stretch called faulty, answered by the faulty load-state ``model`` from the windows
     within its bounds (to ``end_s``) that lie in that model's domain and do not overlap: split
@@ -389,7 +389,7 @@ def _answered_faulty(
         hop_s = float(np.median(np.diff(faulty["start_s"].to_numpy(float))))
         fresh = 1.0 - float(faulty["start_s"].isin(rate[1]).mean())
         found = change_points(faulty, hop_s, rate[0] * fresh) if hop_s > 0 else []
-    times = [change_time(windows, faulty, k) for k, _ in found]
+    times = [_after_gap(change_time(windows, faulty, k), gaps)[0] for k, _ in found]
     edges = [0, *[k for k, _ in found], len(faulty)]
     bounds = [stretch["start_s"], *times, max(stretch["end_s"], float(faulty["end_s"].max()))]
     condition = {k: v for k, v in stretch.items() if k.startswith("condition")}

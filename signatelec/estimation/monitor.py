@@ -317,9 +317,8 @@ class _Windows:
 
     def _no_data(self, start: float, taken: list[tuple], most: int | None) -> int:
         """File the windows from ``start`` that the first gaps of ``taken`` (:meth:`_in_gaps`)
-        take, each with the gap it lies in (at most ``most``), as status "no data"; how many.
-        A gap of more than :data:`MAX_GAP_WINDOWS` ends the reading there, with a note (a
-        clock that jumped), and files none."""
+        take, each with its gap (at most ``most``), as status "no data"; how many. A gap of more
+        than :data:`MAX_GAP_WINDOWS` ends the reading there, with a note, and files none."""
         run = []
         for first, end, gap in taken:
             if run and first > run[-1][1]:
@@ -333,6 +332,7 @@ class _Windows:
                 f"{MAX_GAP_WINDOWS} windows: the record is read up to there (a clock jump?)"
             )
             keep = int(np.searchsorted(self.at, a, side="right"))
+            self.table.n_samples -= self.at.size - keep  # (read, not kept)
             self.t, self.at, self.r = self.t[:keep], self.at[:keep], self.r[:keep]
             self.v = None if self.v is None else self.v[:keep]
             self.ended, self.last_time = True, a
@@ -460,8 +460,8 @@ class _Windows:
                     self.first_repair or f"at t = {time_text(start)} s: " + "; ".join(trace.repairs)
                 )
             # and the record's last blocks: a speed gone wrong since the last screen is named
-            last = final and trace.duration_s >= SCREEN_S  # (a shorter screen misses lines)
-            if self.first or last or start >= self.next_screen_s:
+            long = trace.duration_s >= SCREEN_S  # (a shorter screen misses lines)
+            if self.first or long and (final or start >= self.next_screen_s):
                 given = speed_given(self.s, omega_block, start, self.at[hi - 1], self.first)
                 assessed = self.s.condition_every_s is not None
                 window = self.s.window_s if assessed else None  # a defect's line to confirm

@@ -238,8 +238,9 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def rounded_uniform(t: np.ndarray, dt_min: float, dt_max: float) -> bool:
     """Whether increasing times ``t`` (steps from ``dt_min`` to ``dt_max``) are one clock's:
     their steps spread by no more than the times' rounding to doubles explains (2 ulp of the
-    largest |t|: 2.4e-7 s at a logger's epoch time of 1.7e9 s, 1.2 % of a step at 50 kHz, and
-    ~1e-12 s over an hour from 0) or :data:`UNIFORM_STEPS`."""
+    largest |t|: 4.8e-7 s at a logger's epoch time of 1.7e9 s, 2.4 % of a step at 50 kHz, and
+    ~1e-12 s over an hour from 0) or :data:`UNIFORM_STEPS`. (A dropped sample passes for
+    rounding only where a step is below 2 ulp: above ~2 MHz at epoch times.)"""
     rounding = 2.0 * float(np.spacing(max(abs(float(t[0])), abs(float(t[-1])))))
     return dt_max - dt_min <= rounding + UNIFORM_STEPS * dt_min
 
