@@ -190,6 +190,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
     qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]
+    told = refused[~refused.str.startswith("no data")]  # (a gap is told in gaps)
     return _clean(
         {
             "signatelec": __version__,
@@ -199,7 +200,9 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 "duration_s": table.duration_s,
                 "windows": int(len(windows)),
                 "windows_without_estimate": int(refused.size),
-                "first_refusal": str(refused.iloc[0]) if refused.size else None,
+                "first_refusal": str((told if told.size else refused).iloc[0])
+                if refused.size
+                else None,
                 "interrupted": table.interrupted,
             },
             "settings": {
