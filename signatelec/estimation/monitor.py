@@ -65,7 +65,7 @@ from signatelec.measurement.traces import (
     MAX_GAP_BALL_PASSES,
     TraceError,
     prepare_trace,
-    rounded_uniform,
+    sampling_step,
     time_text,
 )
 from signatelec.physics.kinematics import expected_ball_pass_hz
@@ -181,9 +181,9 @@ class _Windows:
         if steps.size >= 63 or (self.fs is None and self.t.size >= 4096):
             if not steps.size:
                 raise TraceError(f"{self.source}: no time in its first {self.t.size} rows")
-            head = self.t[: steps.size + 1]  # (its steps consecutive when no time is missing)
-            uniform = np.isfinite(head).all() and rounded_uniform(head, steps.min(), steps.max())
-            step = (head[-1] - head[0]) / steps.size if uniform else float(np.median(steps))
+            head, lo, hi = self.t[: steps.size + 1], steps.min(), steps.max()
+            whole = np.isfinite(head).all()  # (the steps consecutive: no time missing)
+            step = sampling_step(head, steps, lo, hi) if whole else float(np.median(steps))
             if not step > 0.0:
                 raise TraceError(f"{self.source}: time does not increase at the start")
             self.fs = self.block_fs = 1.0 / step
