@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 from scipy import fft as sfft
 
-from signatelec.measurement.ripple import PAD, hann
+from signatelec.measurement.ripple import PAD, hann, padded_power
 
 #: Most bins of the ball-pass search per log2 of its padded length that Goertzel's recursion
 #: forms (:func:`_bin_powers`, ~n a bin) before the padded transform of every bin (~n log n)
@@ -100,8 +100,7 @@ def find_ball_pass(
         else:  # a long trace: its bins grow with it, the padded transform as n log n
             level, slope, tc = line
             for i, w in enumerate(rows):
-                y = (x[w] - level[w] - slope[w] * tc) * hann(n)
-                power[i] = np.abs(sfft.rfft(y, n_fft)[bins]) ** 2
+                power[i] = padded_power(x[w] - level[w] - slope[w] * tc, fs)[0][bins]
         found[rows], ratio[rows] = _search_peaks(
             power[:, at],
             np.concatenate([np.flatnonzero(ok) for ok in oks]),
