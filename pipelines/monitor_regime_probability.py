@@ -57,7 +57,7 @@ def collect(
 ) -> pd.DataFrame:
     """The design stretches (module docstring); with ``features``, also the mean of each over
     the stretch's windows (the windows then keep them beside the monitor's own)."""
-    from signatelec.estimation import monitor as monitor_module
+    from signatelec.estimation import monitor_answers as monitor_module
     from signatelec.estimation.changes import effective_fraction
     from signatelec.estimation.evidence import class_columns, stretches_and_changes, usable
     from signatelec.estimation.monitor import MonitorSettings, monitor_trace

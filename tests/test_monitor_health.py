@@ -56,15 +56,17 @@ def _tiled(tile, seconds: float, offset: int = 0) -> np.ndarray:
     return np.tile(tile, n // tile.size + 2)[offset : offset + n]
 
 
-def _spall(kind: str, seconds: float, seed: int, height: float = 0.04) -> np.ndarray:
-    """The relative change a spall of ``kind`` makes (0 for healthy), 1 mm long."""
+def _spall(kind: str, seconds: float, seed: int, height: float = 0.04, bearing=None) -> np.ndarray:
+    """The relative change a spall of ``kind`` makes (0 for healthy), 1 mm long, at the lines
+    of ``bearing`` (default: the seed's)."""
     if kind == "healthy":
         return np.zeros(int(round(seconds * FS)))
     pulses = spalled_trace(
         kind, duration_s=seconds, noise=0.0, pulse_rel=height, level=1.0, length_m=1e-3,
-        width_s=None, phase=None, seed=seed,
+        width_s=None, phase=None, seed=seed, bearing=bearing,
     )  # fmt: skip
-    return pulses - spalled_trace("healthy", duration_s=seconds, noise=0.0, level=1.0)
+    healthy = spalled_trace("healthy", duration_s=seconds, noise=0.0, level=1.0, bearing=bearing)
+    return pulses - healthy
 
 
 @pytest.fixture(scope="module")
@@ -93,11 +95,13 @@ def model_file(tile, tmp_path_factory):
     return path
 
 
-def _record(tile, plan, path, seed=0):
-    """[(condition, seconds)] tiled at 5000 N with each stretch's spall and 0.2 % noise."""
+def _record(tile, plan, path, seed=0, bearing=None):
+    """[(condition, seconds)] tiled with each stretch's spall (at the lines of ``bearing``) and
+    0.2 % noise."""
     rng = np.random.default_rng(seed)
     parts = [
-        _tiled(tile, s) * (1.0 + _spall(kind, s, seed + i)) for i, (kind, s) in enumerate(plan)
+        _tiled(tile, s) * (1.0 + _spall(kind, s, seed + i, bearing=bearing))
+        for i, (kind, s) in enumerate(plan)
     ]
     r = np.concatenate(parts)
     r = r * (1.0 + NOISE * rng.standard_normal(r.size))
@@ -657,3 +661,162 @@ def test_a_faulty_stretch_is_segmented_at_its_share_of_the_rate(monkeypatch):
     (stretch,) = stretches_and_changes(bare, 0.2, 0.1, faulty_model=_HertzLoadModel())[0]
     assert stretch["load_model"] == "faulty"
     assert stretch["radial_load_n"] == pytest.approx(5000.0)
+
+
+# --- another bearing than the seed's: its condition alone ------------------------------------
+
+#: CWRU's drive-end SKF 6205-2RS JEM: the outer race's defect line is 3.5848 times the shaft
+#: frequency (Case Western Reserve University Bearing Data Center, bearing information: ball
+#: diameter 7.94 mm, pitch diameter 39.04 mm, 9 balls), where the seed's bearing's is 5.148.
+CWRU_BPFO_PER_SHAFT = 3.5848
+
+
+@pytest.fixture(scope="module")
+def other_bearing():
+    from signatelec.config.catalogue import catalogue_bearing
+
+    return catalogue_bearing("6205")
+
+
+@pytest.fixture(scope="module")
+def other_tile(other_bearing):
+    """A ball-pass-periodic tile of the 6205's quasi-static tier at 2500 N."""
+    scene = Scene.from_dict({"bearing": {"designation": "6205"}}).with_overrides(
+        fidelity="quasistatic", radial_load_n=2500.0, duration_s=0.06
+    )
+    sig = simulate(scene).signals
+    steady = sig.loc[sig["phase"] == "steady", "resistance_ohm"].to_numpy()
+    return whole_passes(steady, FS, OMEGA, other_bearing)
+
+
+@pytest.fixture(scope="module")
+def other_model_file(model_file, other_tile, other_bearing, tmp_path_factory):
+    """``model_file``'s load-state model (the seed's bearing) with a condition model trained on
+    0.2 s windows of the 6205's tile with each condition of :data:`KINDS` at its own lines
+    (load features read at the seed's geometry, as ``estimate`` reads them; condition
+    features at the 6205's)."""
+    from signatelec.estimation.persistence import load_model
+
+    model = load_model(model_file)
+    rng = np.random.default_rng(13)
+    rows = []
+    for kind in KINDS:
+        for _ in range(60):
+            base = _tiled(other_tile, 0.2, int(rng.integers(other_tile.size)))
+            extra = _spall(
+                kind, 0.2, int(rng.integers(2**31)), rng.uniform(0.02, 0.06), other_bearing
+            )
+            r = base * (1.0 + extra) * (1.0 + NOISE * rng.standard_normal(base.size))
+            feats = trace_features(r, FS, OMEGA) | condition_features(
+                r, FS, OMEGA, bearing=other_bearing
+            )
+            rows.append({"run_id": len(rows), "condition": kind, "spall_length_m": 1e-3} | feats)
+    with threadpool_limits(1):
+        model.condition = train_condition(
+            pd.DataFrame(rows), estimator=ConditionEstimator(max_iter=30, n_splits=2)
+        )
+    path = tmp_path_factory.mktemp("other") / "6205.model"
+    save_model(model, path)
+    return path
+
+
+def test_another_bearing_is_monitored_for_its_condition_alone(
+    other_model_file, other_tile, other_bearing, tmp_path, monkeypatch
+):
+    """A 6205 read with its geometry: 40 s healthy, then 40 s with an outer-race spall (pulses
+    at its own BPFO, 285 Hz at 500 rad/s, where the seed's bearing's is 410 Hz). The change is
+    found within the cadence of its onset, the faulty windows named by the envelope's line at
+    CWRU's published BPFO of the 6205; no window carries a load state (the load-state model
+    learnt the seed's bearing only), and only the windows assessed are analysed: the load state
+    is off and costs nothing. Read at the seed's geometry, the same record is refused as a
+    wrong speed, its ripple named at the 6205's BPFO."""
+    from signatelec.estimation import monitor as monitor_module
+    from signatelec.estimation.persistence import load_model
+    from signatelec.measurement.traces import TraceError
+
+    path = _record(
+        other_tile, [("healthy", 40.0), ("outer", 40.0)], tmp_path / "6205.parquet", 3,
+        other_bearing,
+    )  # fmt: skip
+    model = load_model(other_model_file)
+    analysed = []
+    real = monitor_module.analyse_windows
+    monkeypatch.setattr(
+        monitor_module,
+        "analyse_windows",
+        lambda x, *a, **k: analysed.append(len(x)) or real(x, *a, **k),
+    )
+    settings = MonitorSettings(omega_rad_s=OMEGA, condition_every_s=2.0, bearing=other_bearing)
+    windows = monitor_trace(path, model, settings).frame()
+    stretches, changes, alarms = stretches_and_changes(windows, settings.hop)
+    assessed = windows["condition"].notna()
+    assert assessed.sum() == 40 and sum(analysed) == 40
+    assert windows["status"].str.startswith("no load state").all()
+    assert "radial_load_n" not in windows and windows["resistance_max_ohm"].notna().all()
+    assert [s["condition"] for s in stretches] == ["healthy", "outer"]
+    assert not any("radial_load_n" in s for s in stretches)
+    assert len(changes) == 1 and changes[0]["time_s"] == pytest.approx(40.0, abs=2.0)
+    assert [a["what"] for a in alarms] == ["condition healthy -> outer"]
+    faulty = windows[assessed & (windows["start_s"] > 42.0)]
+    bpfo = CWRU_BPFO_PER_SHAFT * OMEGA / (2.0 * np.pi)
+    assert (faulty["condition_line"] == "bpfo").all()
+    assert faulty["condition_line_hz"].to_numpy() == pytest.approx(bpfo, rel=1e-4)
+    assert np.median(np.abs(faulty["condition_line_found_hz"] - bpfo)) < 5.0
+    seed = MonitorSettings(omega_rad_s=OMEGA, condition_every_s=2.0)
+    with pytest.raises(TraceError, match=r"ripple at 28[45]\.\d Hz"):
+        monitor_trace(path, model, seed)
+
+
+@pytest.mark.parametrize(
+    ("extra", "expected"),
+    [
+        (["--bearing", "6205x"], "--bearing '6205x': unknown bearing; known: seed,"),
+        (["--bearing", "6205", "--condition-every", "0"], "--condition-every 0: no condition"),
+        (["--bearing", "6205", "--track-speed"], "--track-speed: tracks the seed's bearing's"),
+        (["--bearing", "6205", "--model", "load-only"], "--bearing: the model knows the load"),
+    ],
+)
+def test_another_bearing_without_a_condition_to_assess_is_refused(
+    model_file, other_tile, other_model_file, other_bearing, tmp_path, capsys, extra, expected
+):
+    """One line naming the option and the bearing, exit 2, nothing written: an unknown
+    designation, another bearing with nothing to say of it (no condition assessed, or a
+    model without a condition model), or its speed tracked from the seed's line."""
+    from signatelec.estimation.persistence import load_model
+
+    path = _record(other_tile, [("healthy", 2.0)], tmp_path / "short.parquet", 0, other_bearing)
+    if "load-only" in extra:
+        model = load_model(model_file)
+        model.condition = None
+        save_model(model, tmp_path / "load-only.model")
+        extra = [str(tmp_path / "load-only.model") if e == "load-only" else e for e in extra]
+    else:
+        extra = [*extra, "--model", str(other_model_file)]
+    out = tmp_path / "out"
+    code = run_main(["monitor", str(path), "--out", str(out), "--omega", "500", "--quiet", *extra])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and expected in err[0], err
+    assert not out.exists()
+
+
+def test_the_command_monitors_another_bearing(
+    other_model_file, other_tile, other_bearing, tmp_path, capsys
+):
+    """``signatelec monitor --bearing 6205``: the summary names the bearing and says the load
+    state is not estimated, the stretch carries its condition, the picture is written."""
+    import json
+
+    path = _record(other_tile, [("healthy", 10.0)], tmp_path / "rec.parquet", 1, other_bearing)
+    out = tmp_path / "out"
+    code = run_main(
+        ["monitor", str(path), "--out", str(out), "--omega", "500", "--bearing", "6205",
+         "--model", str(other_model_file), "--condition-every", "2"]
+    )  # fmt: skip
+    text = capsys.readouterr().out
+    assert code == 0, text
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["settings"]["bearing"] == other_bearing.name
+    assert any(n.startswith("load state not estimated") for n in summary["notes"])
+    (stretch,) = summary["stretches"]
+    assert stretch["condition"] == "healthy" and "radial_load_n" not in stretch
+    assert (out / "monitor.png").stat().st_size > 0

@@ -40,6 +40,32 @@ def healthy_prior_option(command):
     )(command)
 
 
+def bearing_option(command):
+    """``--bearing DESIGNATION``: the catalogue bearing whose geometry places the lines."""
+    return click.option(
+        "--bearing",
+        "designation",
+        type=str,
+        default=None,
+        help="Catalogue designation of the bearing (`signatelec bearings`): its geometry places "
+        "the ball-pass and the defects' characteristic lines (default: the seed's bearing; the "
+        "load state is estimated for the seed's bearing only).",
+    )(command)
+
+
+def _bearing(designation: str | None):
+    """The catalogue bearing of ``--bearing`` (None: the seed's), or InputError naming it."""
+    if designation is None:
+        return None
+    from signatelec.config.catalogue import CatalogueError, catalogue_bearing
+
+    try:
+        return catalogue_bearing(designation)
+    except CatalogueError as exc:
+        # the catalogue names the scene key; here the option is the field
+        raise InputError(f"--bearing {designation!r}: {str(exc).split(': ', 1)[-1]}") from None
+
+
 def _check_prior(model, healthy_prior) -> None:
     """InputError unless ``model``'s condition model can report under ``healthy_prior``."""
     if healthy_prior is None:
@@ -64,15 +90,7 @@ def _check_prior(model, healthy_prior) -> None:
     "training table, on first use).",
 )
 @click.option("--out", "out", type=str, default=None, help="Write the estimate: .json or .parquet.")
-@click.option(
-    "--bearing",
-    "designation",
-    type=str,
-    default=None,
-    help="Catalogue designation of the bearing (`signatelec bearings`): its geometry places "
-    "the defects' characteristic frequencies (default: the seed's bearing; the load state is "
-    "estimated for the seed's bearing only).",
-)
+@bearing_option
 @healthy_prior_option
 @trace_columns
 @click.option("--quiet", is_flag=True, help="No summary.")
@@ -102,15 +120,7 @@ def estimate(
         check_healthy_prior(healthy_prior)
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    bearing = None
-    if designation is not None:
-        from signatelec.config.catalogue import CatalogueError, catalogue_bearing
-
-        try:
-            bearing = catalogue_bearing(designation)
-        except CatalogueError as exc:
-            # the catalogue names the scene key; here the option is the field
-            raise InputError(f"--bearing {designation!r}: {str(exc).split(': ', 1)[-1]}") from None
+    bearing = _bearing(designation)
     from signatelec.io import TRACE_MAX_BYTES, input_size_problem
 
     problem = input_size_problem(trace_file, TRACE_MAX_BYTES)
@@ -238,6 +248,7 @@ def train(dataset, out, quiet):
 )
 @healthy_prior_option
 @click.option("--model", "model_path", type=str, default=None, help="Model file (as for estimate).")
+@bearing_option
 @trace_columns
 @click.option(
     "--follow", is_flag=True, help="Keep reading a CSV file as it grows; Ctrl-C ends and writes."
@@ -252,8 +263,8 @@ def train(dataset, out, quiet):
 @click.option("--quiet", is_flag=True, help="No progress or summary.")
 def monitor(
     trace_file, out, omega_rad_s, speed_column, track_speed, window_s, hop_s, false_alarm_rate,
-    load_threshold, condition_every_s, healthy_prior, model_path, time_column, resistance_column,
-    follow, idle_s, quiet,
+    load_threshold, condition_every_s, healthy_prior, model_path, designation, time_column,
+    resistance_column, follow, idle_s, quiet,
 ):  # fmt: skip
     """Monitor a long resistance trace: per-window load state, stretches, changes and alarms.
 
@@ -270,12 +281,8 @@ def monitor(
         stretches_and_changes,
     )
     from signatelec.estimation.health import CONDITION_EVERY_S
-    from signatelec.estimation.monitor import (
-        KEPT_FEATURES,
-        MonitorSettings,
-        kept_features,
-        monitor_trace,
-    )
+    from signatelec.estimation.monitor import MonitorSettings, monitor_trace
+    from signatelec.estimation.monitor_answers import KEPT_FEATURES, kept_features
     from signatelec.estimation.monitor_report import COMMAND, summary_of, write_monitor
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.io import input_size_problem
@@ -297,6 +304,7 @@ def monitor(
             if condition_every_s is None
             else (None if condition_every_s == 0 else condition_every_s)
         ),
+        bearing=_bearing(designation),
     )
     try:  # TraceError is a ValueError: the Python functions refuse with the same line
         settings = settings.for_trace(trace_file)
@@ -322,6 +330,10 @@ def monitor(
     except ModelError as exc:
         raise InputError(str(exc)) from None
     _check_prior(model, healthy_prior)  # before the trace is read
+    try:
+        settings.check_model(model)
+    except TraceError as exc:
+        raise InputError(str(exc)) from None
     # the model's objects live until the end: the collector need not walk them again and again
     # (~1 s an hour of trace with the stretch model's trees); unfrozen once the trace is read,
     # so that whatever was garbage then is collected after (a full collection first: 0.14 s)
@@ -339,8 +351,9 @@ def monitor(
         settings.hop,
         false_alarm_rate,
         load_threshold,
-        stretch_model=model.stretch,
-        faulty_model=model.faulty,
+        # the seed's bearing's load-state models (another's windows carry no load state)
+        stretch_model=model.stretch if settings.load_state else None,
+        faulty_model=model.faulty if settings.load_state else None,
         gaps=table.gaps,
     )
     extra = {

@@ -64,15 +64,22 @@ FLOOR = 1e-6
 
 
 def assess_window(
-    segment, sample_rate_hz: float, omega_rad_s: float, features: dict, model, analysis=None
+    segment,
+    sample_rate_hz: float,
+    omega_rad_s: float,
+    features: dict,
+    model,
+    analysis=None,
+    bearing=None,
 ):
     """(keys, note) of one window: ``condition``, ``condition_probability_<name>``,
     ``condition_in_domain_score``, the spall length with its interval and the characteristic
     line that names the condition (:data:`~signatelec.estimation.diagnose.LINE_KEYS`; None where
     not assessed), and the reason it was not assessed (None if it was). ``features``: the window's
-    load-state features (:func:`~signatelec.estimation.features.trace_features`' names)."""
+    load-state features (:func:`~signatelec.estimation.features.trace_features`' names);
+    ``bearing``: its geometry, which places the defects' lines (default: the seed's)."""
     out, notes = assess_condition(
-        segment, sample_rate_hz, omega_rad_s, features, model, trace_analysis=analysis
+        segment, sample_rate_hz, omega_rad_s, features, model, bearing, trace_analysis=analysis
     )
     keys = ["condition", "condition_in_domain_score", SEVERITY_TARGET]
     keys += [f"{SEVERITY_TARGET}_low", f"{SEVERITY_TARGET}_high", *LINE_KEYS]
@@ -82,21 +89,25 @@ def assess_window(
     return row, (notes[0] if missing and notes else None)
 
 
-def defect_explains(trace, omega_rad_s: float, model, ripple, window_s: float, screened: int):
+def defect_explains(
+    trace, omega_rad_s: float, model, ripple, window_s: float, screened: int, bearing=None
+):
     """Whether the strongest line of the first ``screened`` samples of a block's ``trace``,
     away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.sanity.
-    defect_line_of`) that the condition ``model`` confidently calls on the block's first
-    ``window_s`` (its training traces' length), as ``estimate`` keeps a trace whose strongest
-    line a confident call of that very condition explains."""
+    defect_line_of`, of ``bearing``) that the condition ``model`` confidently calls on the
+    block's first ``window_s`` (its training traces' length), as ``estimate`` keeps a trace
+    whose strongest line a confident call of that very condition explains."""
     fs = trace.sample_rate_hz
     seg = trace.resistance_ohm[: int(round(window_s * fs))]
     line = (
-        None if model is None else defect_line_of(ripple.frequency_hz, omega_rad_s, screened / fs)
+        None
+        if model is None
+        else defect_line_of(ripple.frequency_hz, omega_rad_s, screened / fs, bearing)
     )
     if line is None:
         return False
     feats = trace_features(seg, fs, omega_rad_s)
-    keys, _ = assess_window(seg, fs, omega_rad_s, feats, model)
+    keys, _ = assess_window(seg, fs, omega_rad_s, feats, model, bearing=bearing)
     p = keys.get(f"{PROBABILITY}{line[0]}")
     return keys["condition"] == line[0] and p is not None and p >= CONFIDENT_CONDITION
 

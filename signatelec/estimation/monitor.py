@@ -24,7 +24,8 @@ per window).
 
 With a condition model, one window every ``condition_every_s`` is assessed for the bearing's
 condition as well (:mod:`signatelec.estimation.health`: the first full window of a block once
-that much trace has passed; the others' condition columns stay empty).
+that much trace has passed; the others' condition columns stay empty). Another bearing than
+the seed's (``settings.bearing``) has no load state: only those windows are analysed.
 
 The per-window table then goes to :mod:`signatelec.estimation.evidence` (change points,
 stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the output directory.
@@ -49,6 +50,7 @@ from signatelec.estimation.monitor_answers import (
     SCREEN_S,
     estimate_batch,
     feature_columns,
+    kept_features,
     screen_block,
 )
 from signatelec.estimation.monitor_settings import (
@@ -83,17 +85,6 @@ MEASURE_WINDOWS = 100
 #: gone wrong is refused within this; screening every block cost ~1.4 ms per 0.2 s window at
 #: 50 kHz, more than the window's features.
 SCREEN_EVERY_S = 10.0
-#: Features kept per window beside the estimate (the change detector reads some), before the
-#: model's own (:func:`kept_features`).
-KEPT_FEATURES = (
-    "level_mean_ohm",
-    "noise_rms_rel",
-    "h1_rel",
-    "h2_rel",
-    "h2_even_rel",
-    "ball_pass_found_hz",
-    "harmonic_snr",
-)
 #: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
 #: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
 TRACK_MIN_SNR = 25.0
@@ -128,15 +119,6 @@ class WindowTable:
         if not self.parts:
             return pd.DataFrame()
         return pd.concat(self.parts, ignore_index=True)
-
-
-def kept_features(model: LoadStateModel) -> tuple[str, ...]:
-    """The features a window's row keeps: :data:`KEPT_FEATURES`, then the model's own (a
-    stretch's mean features are what its stretch model reads) and its ``faulty`` model's (which
-    answers a stretch called faulty)."""
-    faulty = getattr(model, "faulty", None)
-    extra = faulty.features if faulty is not None else ()
-    return tuple(dict.fromkeys([*KEPT_FEATURES, *model.features, *extra]))
 
 
 class _Windows:
@@ -255,7 +237,9 @@ class _Windows:
         clock = time.process_time()
         self._features()
         ok = [row for row in self.pending if "_features" in row]
-        estimate_batch(ok, [row.pop("_features") for row in ok], self.model)
+        feats = [row.pop("_features") for row in ok]
+        if self.s.load_state:
+            estimate_batch(ok, feats, self.model)
         for row in self.pending:  # a window interrupted before its assessment has none
             row.pop("_condition", None)
         if self.pending:
@@ -413,7 +397,8 @@ class _Windows:
         table = window_features(analyses)
         self.unmeasured = []  # (after: a Ctrl-C while measuring leaves them to be measured)
         column = feature_columns(analyses[0].n_harmonics)
-        names = kept_features(self.model)
+        # (another bearing's level alone: the others were read at the seed's ball-pass line)
+        names = kept_features(self.model) if self.s.load_state else ("level_mean_ohm",)
         kept = table[:, [column[name] for name in names]].tolist()
         snr = table[:, column["harmonic_snr"]].tolist()
         found = table[:, column["ball_pass_found_hz"]].tolist()
@@ -432,7 +417,11 @@ class _Windows:
         segment, fs, omega = row.pop("_condition")
         names = trace_feature_names(analysis.n_harmonics)
         named = dict(zip(names, features.tolist(), strict=True))
-        keys, note = assess_window(segment, fs, omega, named, self.model.condition, analysis)
+        # the analysis found the seed's ball-pass line: another bearing's is found again
+        mine = analysis if self.s.load_state else None
+        keys, note = assess_window(
+            segment, fs, omega, named, self.model.condition, mine, self.s.bearing
+        )
         row.update(keys)
         if note and not self.condition_noted:
             self.table.notes.append(f"at t = {time_text(row['start_s'])} s: {note}")
@@ -444,7 +433,7 @@ class _Windows:
         speed = None if self.v is None else self.v[lo:hi]
         omega_block = omega_of(self.s, speed, self.tracked)
         where = f"{self.source} at t = {time_text(start)} s"
-        rows, status, ripple = [], "ok", "unchecked"
+        rows, status, ripple = [], self.s.window_status, "unchecked"
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
@@ -467,7 +456,7 @@ class _Windows:
                 window = self.s.window_s if assessed else None  # a defect's line to confirm
                 try:
                     ripple, note = screen_block(
-                        trace, omega_block, self.model, self.first, given, window
+                        trace, omega_block, self.model, self.first, given, window, self.s.bearing
                     )
                 except TraceError:
                     if self.last_screen_s is not None:
@@ -521,7 +510,7 @@ class _Windows:
                 if not (math.isfinite(omega) and omega > 0):
                     row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
                     continue
-                if short := window_too_short(self.s.window_s, omega):
+                if short := window_too_short(self.s.window_s, omega, self.s.bearing):
                     row["status"] = f"refused: {short}"
                     continue
             due = assess and t_start >= self.next_condition_s - 0.5 * self.s.hop
@@ -529,6 +518,10 @@ class _Windows:
                 measured = self.tracked if self.s.track_speed and speed is None else omega
                 row["_condition"] = (seg.copy(), trace.sample_rate_hz, measured)
                 self.next_condition_s = t_start + every
+            elif not self.s.load_state:  # nothing to estimate: the envelope alone
+                row.update(omega_rad_s=omega, resistance_min_ohm=float(seg.min()))
+                row["resistance_max_ohm"] = float(seg.max())
+                continue
             if self.s.track_speed and speed is None:
                 # the speed comes from the previous window's line: one window at a time
                 self._measure([(row, seg, self.tracked)], trace.sample_rate_hz)
@@ -558,6 +551,7 @@ def monitor_trace(
     (``interrupted``)."""
     s = settings.for_trace(path)
     s.check()
+    s.check_model(model)
     table = WindowTable()
     source = trace_label(path)
     cutter = _Windows(s, model, table, source)
@@ -586,8 +580,12 @@ def monitor_trace(
             table.interrupted = True
         cutter.finish()
     windows = table.frame()
-    # a window whose condition is a confident fault answers too (:func:`confident_faults`)
-    if len(windows) and not ((windows["status"] == "ok") | confident_faults(windows)).any():
+    # a window whose condition is a confident fault answers too (:func:`confident_faults`), and
+    # any assessed one where the load state is not estimated
+    answers = (windows["status"] == "ok") | confident_faults(windows) if len(windows) else None
+    if not s.load_state and "condition" in windows:
+        answers |= windows["condition"].notna()
+    if len(windows) and not answers.any():
         raise TraceError(
             f"{source}: none of its {len(windows)} windows carries an estimate; the first: "
             f"{windows['status'].iloc[0]}"

@@ -22,9 +22,22 @@ from signatelec.measurement.traces import N_HARMONICS, TraceError
 
 #: Length of each block's ripple and level screening (the ripple search costs ~T^2).
 SCREEN_S = 0.5
+#: Features kept per window beside the estimate (the change detector reads some), before the
+#: model's own (:func:`kept_features`).
+KEPT_FEATURES = (
+    "level_mean_ohm",
+    "noise_rms_rel",
+    "h1_rel",
+    "h2_rel",
+    "h2_even_rel",
+    "ball_pass_found_hz",
+    "harmonic_snr",
+)
 
 
-def screen_block(trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=None):
+def screen_block(
+    trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=None, bearing=None
+):
     """(ripple status, note) of a block's first :data:`SCREEN_S`, or TraceError naming ``speed``
     (what the user gave for ``omega``: :func:`~signatelec.estimation.monitor_settings.
     speed_given`). A later block whose first :data:`SCREEN_S` shows the line elsewhere has its
@@ -35,21 +48,24 @@ def screen_block(trace, omega, model: LoadStateModel, first: bool, speed=None, w
     elsewhere that lies on a defect's line is kept (status ``defect``) when the condition is
     assessed (``window_s``: the windows' length, None when it is not) and the condition model
     confidently calls that very condition on the block's first window, as ``estimate`` keeps a
-    trace (:func:`~signatelec.estimation.health.defect_explains`)."""
+    trace (:func:`~signatelec.estimation.health.defect_explains`). ``bearing``: its geometry,
+    which places the ball-pass and the defects' lines (default: the seed's)."""
     n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
     r = trace.resistance_ohm[:n]
     note = None
     if model.domain is not None:
         note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
-    ripple = find_ripple(r, trace.sample_rate_hz, omega)
+    ripple = find_ripple(r, trace.sample_rate_hz, omega, bearing=bearing)
     if ripple.status == "elsewhere" and not first and trace.resistance_ohm.size >= 2 * n:
-        again = find_ripple(trace.resistance_ohm[-n:], trace.sample_rate_hz, omega)
+        again = find_ripple(trace.resistance_ohm[-n:], trace.sample_rate_hz, omega, bearing=bearing)
         if again.status not in ("elsewhere", "constant"):
             ripple = again
     if (
         ripple.status == "elsewhere"
         and window_s is not None
-        and defect_explains(trace, omega, getattr(model, "condition", None), ripple, window_s, n)
+        and defect_explains(
+            trace, omega, getattr(model, "condition", None), ripple, window_s, n, bearing
+        )
     ):
         return "defect", note if first else None
     if ripple.status in ("elsewhere", "constant"):
@@ -61,6 +77,15 @@ def screen_block(trace, omega, model: LoadStateModel, first: bool, speed=None, w
 def feature_columns(n_harmonics: int = N_HARMONICS) -> dict[str, int]:
     """Column of each feature in :func:`~signatelec.estimation.features.window_features`."""
     return {name: i for i, name in enumerate(trace_feature_names(n_harmonics))}
+
+
+def kept_features(model: LoadStateModel) -> tuple[str, ...]:
+    """The features a window's row keeps: :data:`KEPT_FEATURES`, then the model's own (a
+    stretch's mean features are what its stretch model reads) and its ``faulty`` model's (which
+    answers a stretch called faulty)."""
+    faulty = getattr(model, "faulty", None)
+    extra = faulty.features if faulty is not None else ()
+    return tuple(dict.fromkeys([*KEPT_FEATURES, *model.features, *extra]))
 
 
 def estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateModel) -> None:

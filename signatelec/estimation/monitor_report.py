@@ -187,6 +187,8 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
             "estimate ('no data'), a change found across a gap is timed at its end ('gap_s'), "
             "and a stretch over one was not observed there ('unobserved_s')"
         )
+    if not settings.load_state:
+        notes.append(settings.window_status.replace("no load state", "load state not estimated"))
     qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]
@@ -211,6 +213,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 "omega_rad_s": settings.omega_rad_s,
                 "speed_column": settings.speed_column,
                 "track_speed": settings.track_speed,
+                "bearing": None if settings.bearing is None else settings.bearing.name,
                 **extra,
             },
             "notes": notes,
@@ -239,6 +242,19 @@ def _steps(stretches: list[dict], key: str) -> tuple[list, list]:
     return xs, ys
 
 
+def _broken(frame: pd.DataFrame, gaps: list[tuple]) -> pd.DataFrame:
+    """``frame`` with a row of NaN in each of the ``gaps``, in time order: its lines break there."""
+    if gaps and "time_s" in frame:
+        middle = pd.DataFrame({"time_s": [0.5 * (a + b) for a, b in gaps]})
+        frame = pd.concat([frame, middle], ignore_index=True).sort_values("time_s")
+    return frame
+
+
+def _rows_with(windows: pd.DataFrame, column: str) -> pd.DataFrame:
+    """The windows that hold a value of ``column`` (none when it is not there)."""
+    return windows[windows[column].notna()] if column in windows else windows.iloc[0:0]
+
+
 def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     from matplotlib.collections import PolyCollection
 
@@ -246,26 +262,34 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
 
     fig = new_figure(9.0, 8.0)
     axes = fig.subplots(3, 1, sharex=True)
-    ok = windows[windows["status"] == "ok"] if "status" in windows else windows
     gaps = [(g["start_s"], g["end_s"]) for g in summary.get("gaps", ())]
-    if gaps and "time_s" in ok:  # a row of NaN in each gap breaks the lines there
-        middle = pd.DataFrame({"time_s": [0.5 * (a + b) for a, b in gaps]})
-        ok = pd.concat([ok, middle], ignore_index=True).sort_values("time_s")
+    ok = _broken(windows[windows["status"] == "ok"] if "status" in windows else windows, gaps)
     t = ok["time_s"].to_numpy() if "time_s" in ok else np.empty(0)
     ax = axes[0]
-    if t.size:
+    # every window measured, whatever became of its estimate (another bearing's have none)
+    seen, mean = (
+        _broken(_rows_with(windows, c), gaps) for c in ("resistance_min_ohm", "level_mean_ohm")
+    )
+    if len(seen):
         ax.fill_between(
-            t,
-            ok["resistance_min_ohm"] * 1e3,
-            ok["resistance_max_ohm"] * 1e3,
+            seen["time_s"],
+            seen["resistance_min_ohm"] * 1e3,
+            seen["resistance_max_ohm"] * 1e3,
             color="0.8",
             label="window min-max",
         )
-        ax.plot(t, ok["level_mean_ohm"] * 1e3, "k-", lw=0.8, label="window mean")
+    if len(mean):
+        ax.plot(mean["time_s"], mean["level_mean_ohm"] * 1e3, "k-", lw=0.8, label="window mean")
     ax.set_ylabel("resistance (mOhm)")
     _legend(ax)
     ax = axes[1]
-    if t.size:
+    status = windows["status"] if "status" in windows else pd.Series(dtype=str)
+    if status.str.startswith("no load state").any():
+        ax.text(
+            0.5, 0.5, "load state not estimated: the load-state model learnt the seed's bearing "
+            "only", ha="center", fontsize=8, transform=ax.transAxes,
+        )  # fmt: skip
+    if t.size and "radial_load_n" in ok:
         ax.fill_between(
             t,
             ok["radial_load_n_low"],
@@ -302,15 +326,25 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     ax.set_ylabel("F_r (N)")
     _legend(ax)
     ax = axes[2]
-    probs = [c for c in ok.columns if c.startswith("regime_probability_")]
+    # the regime's probabilities, or without a load state the condition's assessments'
+    what = "regime" if any(c.startswith("regime_probability_") for c in ok) else "condition"
+    shown = ok if what == "regime" else _rows_with(windows, "condition")
+    probs = [c for c in shown.columns if c.startswith(f"{what}_probability_")]
     for j, c in enumerate(probs):
-        ax.plot(t, ok[c], ".", ms=2, color=f"C{j}", alpha=0.5)
+        ax.plot(
+            shown["time_s"],
+            shown[c],
+            ".",
+            ms=2 if what == "regime" else 5,
+            color=f"C{j}",
+            alpha=0.5,
+        )
         ax.plot(
             *_steps(summary["stretches"], c),
             "-",
             color=f"C{j}",
             lw=2,
-            label=c.removeprefix("regime_probability_"),
+            label=c.removeprefix(f"{what}_probability_"),
         )
     if any("condition_faulty_share" in s for s in summary["stretches"]):
         ax.plot(
@@ -320,7 +354,7 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
             label="assessments called faulty",
         )
     ax.set_ylim(-0.02, 1.02)
-    ax.set_ylabel("regime probability")
+    ax.set_ylabel(f"{what} probability")
     ax.set_xlabel("time (s)")
     _legend(ax)
     for a in axes if gaps else ():  # the gaps shaded, one collection per axis

@@ -1,6 +1,6 @@
 """What :func:`~signatelec.estimation.monitor.monitor_trace` does with a trace: the window, hop,
-speed, columns, reading and condition cadence (:class:`MonitorSettings`), checked before any
-trace is read; the speed a block or a window is read at (:func:`omega_of`)."""
+speed, columns, reading, condition cadence and bearing (:class:`MonitorSettings`), checked
+before any trace is read; the speed a block or a window is read at (:func:`omega_of`)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from signatelec.config.bearing import Bearing
+from signatelec.estimation.estimate import is_seed_bearing
 from signatelec.estimation.health import CONDITION_EVERY_S
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
 from signatelec.measurement.traces import MIN_BALL_PASSES, TraceError, time_text
@@ -40,10 +42,47 @@ class MonitorSettings:
     follow_idle_s: float | None = None
     chunk_rows: int = CHUNK_ROWS
     condition_every_s: float | None = CONDITION_EVERY_S
+    #: The bearing's geometry, which places the ball-pass and the defects' lines (None: the
+    #: seed's). The load-state model learnt the seed's bearing only: another's windows carry
+    #: their condition alone (:attr:`load_state`), as ``estimate --bearing`` answers.
+    bearing: Bearing | None = None
 
     @property
     def hop(self) -> float:
         return self.window_s if self.hop_s is None else self.hop_s
+
+    @property
+    def load_state(self) -> bool:
+        """Whether the windows' load state is estimated: the bearing is the seed's."""
+        return self.bearing is None or is_seed_bearing(self.bearing)
+
+    @property
+    def window_status(self) -> str:
+        """The status of a window read as asked: ``ok``, or why another bearing's carries no
+        load state."""
+        if self.load_state:
+            return "ok"
+        return (
+            "no load state: the load-state model learnt the seed's bearing only, not the "
+            f"{self.bearing.name}"
+        )
+
+    def check_model(self, model) -> None:
+        """TraceError when ``model`` has nothing to say of the bearing: another bearing than the
+        seed's with no condition assessed."""
+        if self.load_state:
+            return
+        name = self.bearing.name
+        if getattr(model, "condition", None) is None:
+            raise TraceError(
+                f"--bearing: the model knows the load state of the seed's bearing only, and no "
+                f"condition model is there to assess this {name}"
+            )
+        if self.condition_every_s is None:
+            raise TraceError(
+                f"--condition-every 0: no condition assessed, and the load state is known for "
+                f"the seed's bearing only, not this {name} (--bearing); give a cadence in s"
+            )
 
     def for_trace(self, path) -> MonitorSettings:
         """The settings a trace at ``path`` is read with: standard input (``-``) is followed
@@ -66,6 +105,11 @@ class MonitorSettings:
             raise TraceError("give the speed one way: --omega RAD_S or --speed-column NAME")
         if s.track_speed and s.omega_rad_s is None:
             raise TraceError("--track-speed starts from --omega RAD_S; give it")
+        if s.track_speed and not s.load_state:
+            raise TraceError(
+                f"--track-speed: tracks the seed's bearing's ball-pass line only, not this "
+                f"{s.bearing.name}'s (--bearing); give --omega or --speed-column"
+            )
         if s.follow_idle_s is not None and not 0 < s.follow_idle_s < math.inf:
             # an infinite idle time would follow for ever: that is --follow without --idle
             raise TraceError(
@@ -103,14 +147,16 @@ class MonitorSettings:
             and s.omega_rad_s > 0
         ):
             raise TraceError(f"--omega {s.omega_rad_s!r}: must be a finite speed > 0 rad/s")
-        if s.omega_rad_s is not None and (short := window_too_short(s.window_s, s.omega_rad_s)):
+        if s.omega_rad_s is not None and (
+            short := window_too_short(s.window_s, s.omega_rad_s, s.bearing)
+        ):
             raise TraceError(short)
 
 
-def window_too_short(window_s: float, omega: float) -> str | None:
+def window_too_short(window_s: float, omega: float, bearing: Bearing | None = None) -> str | None:
     """Why a window of ``window_s`` at ``omega`` is too short for an estimate (fewer ball
-    passes than ``estimate`` needs), or None."""
-    passes = window_s * expected_ball_pass_hz(omega)
+    passes of ``bearing``, default the seed's, than ``estimate`` needs), or None."""
+    passes = window_s * expected_ball_pass_hz(omega, bearing)
     if passes >= MIN_BALL_PASSES:
         return None
     return (

@@ -127,12 +127,15 @@ def dem_bank(
     return states
 
 
-def whole_passes(resistance_ohm: np.ndarray, fs: float, omega_rad_s: float) -> np.ndarray:
-    """The trace cut to the whole number of ball passes nearest its length (f_bp found by the
-    analysis), so that a tiling continues the ripple across the seam to within half a sample."""
+def whole_passes(
+    resistance_ohm: np.ndarray, fs: float, omega_rad_s: float, bearing=None
+) -> np.ndarray:
+    """The trace cut to the whole number of ball passes nearest its length (f_bp of
+    ``bearing``, default the seed's, found by the analysis), so that a tiling continues the
+    ripple across the seam to within half a sample."""
     from signatelec.estimation.analysis import analyse_trace
 
-    f_bp = analyse_trace(resistance_ohm, fs, omega_rad_s).ball_pass_hz
+    f_bp = analyse_trace(resistance_ohm, fs, omega_rad_s, bearing=bearing).ball_pass_hz
     passes = math.floor(resistance_ohm.size / fs * f_bp)
     return resistance_ohm[: int(round(passes * fs / f_bp))]
 
