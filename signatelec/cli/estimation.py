@@ -417,13 +417,13 @@ def _progress_printer(trace_file: str, every_s: float = 2.0):
         last[0] = now
         seconds = table.duration_s
         share = f" ({table.n_samples / total:.0%})" if total else ""
-        # (no rate before the first windows are estimated: a followed trace's are asked in
-        # batches)
+        # (no rate before the first windows are filed: the model is asked in batches; another
+        # bearing's windows are filed with their condition alone)
         rate = seconds / table.cpu_s if table.n_windows and table.cpu_s > 0 else None
         speed = "" if rate is None else f", {rate:.0f}x real time"
         click.echo(
             f"signatelec: monitor: {seconds:.1f} s of trace read{share}, {table.n_windows} "
-            f"windows estimated{speed}",
+            f"windows done{speed}",
             err=True,
         )
 
