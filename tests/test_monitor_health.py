@@ -222,6 +222,7 @@ def test_the_command_reports_the_condition(model_file, tile, tmp_path, capsys):
     out = path.parent / "out"
     assert [s["condition"] for s in summary["stretches"]] == ["healthy", "inner"]
     assert summary["settings"]["condition_every_s"] == 2.0
+    assert summary["settings"]["bearing"] is None
     assert [a["kind"] for a in summary["alarms"]] == ["condition"]
     assert "condition healthy -> inner" in text
     windows = pd.read_parquet(out / "windows.parquet")
@@ -341,10 +342,12 @@ def test_a_record_of_a_spalled_bearing_answers_its_condition(model_file, tile, t
     assert "no load estimate" in text
 
 
-def test_assessments_follow_a_cadence_shorter_than_a_block(model_file, tile, tmp_path):
-    """--condition-every below the 2 s block assesses that often: every second 0.2 s window."""
+@pytest.mark.parametrize("every_s", [0.4, 0.3])
+def test_assessments_follow_a_cadence_shorter_than_a_block(model_file, tile, tmp_path, every_s):
+    """--condition-every below the 2 s block assesses that often: every second 0.2 s window;
+    a cadence between two windows (1.5 hops) takes the later, not every window."""
     path = _record(tile, [("healthy", 10.0)], tmp_path / "dense.parquet", seed=2)
-    windows, _ = _monitor(path, model_file, 0.4)
+    windows, _ = _monitor(path, model_file, every_s)
     assessed = windows.loc[windows["condition_probability_healthy"].notna(), "start_s"]
     assert len(assessed) == 25 and np.allclose(np.diff(assessed), 0.4)
 
@@ -774,14 +777,17 @@ def test_another_bearing_is_monitored_for_its_condition_alone(
         (["--bearing", "6205", "--condition-every", "0"], "--condition-every 0: no condition"),
         (["--bearing", "6205", "--track-speed"], "--track-speed: tracks the seed's bearing's"),
         (["--bearing", "6205", "--model", "load-only"], "--bearing: the model knows the load"),
+        # 3.17 cage revolutions of the 6205 at 500 rad/s, where the training windows span 6.3
+        (["--bearing", "6205", "--window", "0.1"], "--window 0.1: 3.17 cage revolutions"),
     ],
 )
 def test_another_bearing_without_a_condition_to_assess_is_refused(
     model_file, other_tile, other_model_file, other_bearing, tmp_path, capsys, extra, expected
 ):
-    """One line naming the option and the bearing, exit 2, nothing written: an unknown
-    designation, another bearing with nothing to say of it (no condition assessed, or a
-    model without a condition model), or its speed tracked from the seed's line."""
+    """One line naming the option and the bearing, exit 2, nothing written, before the record
+    is read: an unknown designation, another bearing with nothing to say of it (no condition
+    assessed, a model without a condition model, or windows too short for the condition
+    model), or its speed tracked from the seed's line."""
     from signatelec.estimation.persistence import load_model
 
     path = _record(other_tile, [("healthy", 2.0)], tmp_path / "short.parquet", 0, other_bearing)
@@ -800,13 +806,18 @@ def test_another_bearing_without_a_condition_to_assess_is_refused(
 
 
 def test_the_command_monitors_another_bearing(
-    other_model_file, other_tile, other_bearing, tmp_path, capsys
+    other_model_file, other_tile, other_bearing, tile, tmp_path, capsys
 ):
     """``signatelec monitor --bearing 6205``: the summary names the bearing and says the load
-    state is not estimated, the stretch carries its condition, the picture is written."""
+    state is not estimated, the stretch carries its condition, the picture is written. The
+    block at 10 s is of the seed's bearing (its ripple at 410 Hz, not the 6205's 285 Hz): its
+    screen refuses it, and that refusal is the first one named."""
     import json
 
     path = _record(other_tile, [("healthy", 10.0)], tmp_path / "rec.parquet", 1, other_bearing)
+    r = pd.read_parquet(path)["resistance_ohm"].to_numpy()
+    r = np.concatenate([r, _tiled(tile, 2.0), _tiled(other_tile, 2.0)])
+    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
     out = tmp_path / "out"
     code = run_main(
         ["monitor", str(path), "--out", str(out), "--omega", "500", "--bearing", "6205",
@@ -817,6 +828,8 @@ def test_the_command_monitors_another_bearing(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["settings"]["bearing"] == other_bearing.name
     assert any(n.startswith("load state not estimated") for n in summary["notes"])
-    (stretch,) = summary["stretches"]
-    assert stretch["condition"] == "healthy" and "radial_load_n" not in stretch
+    assert summary["trace"]["first_refusal"].startswith("refused: ")
+    assert "ripple at 409" in summary["trace"]["first_refusal"]
+    assert [s["condition"] for s in summary["stretches"]] == ["healthy"]
+    assert "radial_load_n" not in summary["stretches"][0]
     assert (out / "monitor.png").stat().st_size > 0

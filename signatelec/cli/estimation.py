@@ -128,7 +128,9 @@ def estimate(
         raise InputError(f"trace {trace_file!r}: {problem}")
     try:
         t, r, phase = read_trace(trace_file, time_column, resistance_column)
-        trace = prepare_trace(t, r, omega_rad_s, source=f"trace {trace_file!r}", phase=phase)
+        trace = prepare_trace(
+            t, r, omega_rad_s, source=f"trace {trace_file!r}", phase=phase, bearing=bearing
+        )
     except TraceError as exc:
         raise InputError(str(exc)) from None
     try:

@@ -78,6 +78,15 @@ def matched_line(condition: str, analysis) -> dict:
     }
 
 
+def least_cage_revolutions(model) -> tuple[float, float]:
+    """(the fewest cage revolutions a trace must span for the condition ``model`` to assess it,
+    the fewest of its training traces'): the lines' heights over their floors grow with the
+    trace's length, so fewer than the shortest training trace is an extrapolation the model was
+    not asked to make."""
+    trained = model.info.get("ranges", {}).get("cage_revolutions", (0.0, 0.0))[0]
+    return max(MIN_CAGE_REVOLUTIONS, 0.95 * trained), trained
+
+
 def assess_condition(
     resistance_ohm,
     sample_rate_hz: float,
@@ -94,10 +103,7 @@ def assess_condition(
         resistance_ohm, sample_rate_hz, omega_rad_s, bearing=bearing, analysis=trace_analysis
     )
     revolutions = analysis.cage_revolutions
-    # the lines' heights over their floors grow with the trace's length: fewer revolutions than
-    # the shortest training trace is an extrapolation the model was not asked to make
-    trained = model.info.get("ranges", {}).get("cage_revolutions", (0.0, 0.0))[0]
-    least = max(MIN_CAGE_REVOLUTIONS, 0.95 * trained)
+    least, trained = least_cage_revolutions(model)
     if revolutions < least:
         need = least / analysis.lines_hz["ftf"]
         return _none(model), [

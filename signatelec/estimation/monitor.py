@@ -296,7 +296,7 @@ class _Windows:
         omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
         if times.size < 2 or not (math.isfinite(omega) and omega > 0):
             return []
-        limit = MAX_GAP_BALL_PASSES / expected_ball_pass_hz(omega)
+        limit = MAX_GAP_BALL_PASSES / expected_ball_pass_hz(omega, self.s.bearing)
         return windows_in_gaps(times, limit, start, self.s, self.fs, n_per)
 
     def _no_data(self, start: float, taken: list[tuple], most: int | None) -> int:
@@ -442,6 +442,7 @@ class _Windows:
                 self.r[lo:hi],
                 omega_block,
                 source=where if not self.first else self.source,
+                bearing=self.s.bearing,
             )
             if trace.repairs:
                 self.repaired += 1
@@ -513,7 +514,8 @@ class _Windows:
                 if short := window_too_short(self.s.window_s, omega, self.s.bearing):
                     row["status"] = f"refused: {short}"
                     continue
-            due = assess and t_start >= self.next_condition_s - 0.5 * self.s.hop
+            # the window nearest the due time, a tie to the later (1.5 hops: every second one)
+            due = assess and t_start >= self.next_condition_s - (0.5 - 1e-6) * self.s.hop
             if due and seg.size == win_n:
                 measured = self.tracked if self.s.track_speed and speed is None else omega
                 row["_condition"] = (seg.copy(), trace.sample_rate_hz, measured)

@@ -170,11 +170,12 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
     """The content of ``summary.json``; ``model``: the load-state model, whose training ranges
     (and its faulty model's) the stretches are qualified against (:func:`qualify`)."""
     windows = table.frame()
+    model = model if settings.load_state else None  # (another bearing's: no load state)
     faulty = getattr(model, "faulty", None)
     notes = list(table.notes) + qualify(
         stretches,
         model.info.get("ranges") if model is not None else None,
-        settings.window_s,
+        settings.window_s if settings.load_state else None,
         faulty.info.get("ranges") if faulty is not None else None,
     )
     if table.gaps:
@@ -187,12 +188,14 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
             "estimate ('no data'), a change found across a gap is timed at its end ('gap_s'), "
             "and a stretch over one was not observed there ('unobserved_s')"
         )
-    if not settings.load_state:
+    if not settings.load_state:  # the condition alone: what it did not see is said
         notes.append(settings.window_status.replace("no load state", "load state not estimated"))
+        notes += _unassessed_tail(windows, settings)
     qualify_alarms(alarms, stretches)
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     refused = status[status != "ok"]
-    told = refused[~refused.str.startswith("no data")]  # (a gap is told in gaps)
+    # a gap is told in gaps, another bearing's missing load state in the notes
+    told = refused[~refused.str.startswith(("no data", "no load state"))]
     return _clean(
         {
             "signatelec": __version__,
@@ -213,7 +216,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 "omega_rad_s": settings.omega_rad_s,
                 "speed_column": settings.speed_column,
                 "track_speed": settings.track_speed,
-                "bearing": None if settings.bearing is None else settings.bearing.name,
+                "bearing": None if settings.load_state else settings.bearing.name,
                 **extra,
             },
             "notes": notes,
@@ -224,6 +227,22 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
             "alarms": alarms,
         }
     )
+
+
+def _unassessed_tail(windows: pd.DataFrame, settings) -> list[str]:
+    """A note on the record's end that no assessment of the condition saw (longer than a hop:
+    the condition is assessed every ``condition_every_s``), or none."""
+    if "condition" not in windows or not windows["condition"].notna().any():
+        return []
+    last = float(windows.loc[windows["condition"].notna(), "end_s"].max())
+    tail = float(windows["end_s"].max()) - last
+    if tail <= settings.hop * (1.0 + 1e-9):
+        return []
+    return [
+        f"the condition is assessed every {settings.condition_every_s:g} s (--condition-every): "
+        f"the last assessment ends at t = {time_text(last)} s, {tail:.6g} s before the last "
+        "window's end, and what the record shows after it is not assessed"
+    ]
 
 
 def _legend(ax) -> None:
@@ -278,8 +297,9 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
             color="0.8",
             label="window min-max",
         )
-    if len(mean):
-        ax.plot(mean["time_s"], mean["level_mean_ohm"] * 1e3, "k-", lw=0.8, label="window mean")
+    if len(mean):  # (another bearing's: the assessed windows' alone, marked)
+        style = "k-" if 2 * len(mean) > len(seen) else "k.-"
+        ax.plot(mean["time_s"], mean["level_mean_ohm"] * 1e3, style, lw=0.8, label="window mean")
     ax.set_ylabel("resistance (mOhm)")
     _legend(ax)
     ax = axes[1]
@@ -289,6 +309,7 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
             0.5, 0.5, "load state not estimated: the load-state model learnt the seed's bearing "
             "only", ha="center", fontsize=8, transform=ax.transAxes,
         )  # fmt: skip
+        ax.set_yticks([])
     if t.size and "radial_load_n" in ok:
         ax.fill_between(
             t,

@@ -10,11 +10,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from signatelec.config.bearing import Bearing
+from signatelec.estimation.diagnose import least_cage_revolutions
 from signatelec.estimation.estimate import is_seed_bearing
 from signatelec.estimation.health import CONDITION_EVERY_S
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
 from signatelec.measurement.traces import MIN_BALL_PASSES, TraceError, time_text
-from signatelec.physics.kinematics import expected_ball_pass_hz
+from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
 #: Default window and hop, s: 200 ms windows are the longest of the training windows
 #: (docs/load_state: 88 % regime accuracy per window there, against 79 % at 50 ms).
@@ -83,6 +84,15 @@ class MonitorSettings:
                 f"--condition-every 0: no condition assessed, and the load state is known for "
                 f"the seed's bearing only, not this {name} (--bearing); give a cadence in s"
             )
+        least, _ = least_cage_revolutions(model.condition)
+        if self.omega_rad_s is not None:  # (a speed column's windows are told one by one)
+            f_cage = characteristic_frequencies_hz(self.omega_rad_s, self.bearing)["ftf"]
+            if self.window_s * f_cage < least:
+                raise TraceError(
+                    f"--window {self.window_s:g}: {self.window_s * f_cage:.3g} cage revolutions "
+                    f"of this {name} at {self.omega_rad_s:g} rad/s; its condition needs "
+                    f"{least:.2g} (>= {least / f_cage:.3g} s)"
+                )
 
     def for_trace(self, path) -> MonitorSettings:
         """The settings a trace at ``path`` is read with: standard input (``-``) is followed

@@ -263,11 +263,13 @@ def prepare_trace(
     source: str = "trace",
     min_ball_passes: float = MIN_BALL_PASSES,
     phase=None,
+    bearing: Bearing | None = None,
 ) -> Trace:
     """Check, repair and resample a trace for estimation; TraceError when it cannot be used.
 
     ``phase``: the simulation phase of each row (:attr:`TraceColumns.phase`); only the
-    steady rows are kept."""
+    steady rows are kept. ``bearing``: its geometry (default: the seed's), whose ball pass
+    sets the gaps filled in, the rate needed and the length needed."""
     where = source
     if not (isinstance(omega_rad_s, int | float) and math.isfinite(omega_rad_s)):
         raise TraceError(f"--omega {omega_rad_s!r}: must be a finite speed in rad/s")
@@ -318,10 +320,10 @@ def prepare_trace(
         )
     step = sampling_step(t, dt, dt_min, dt_max)
     fs = 1.0 / step
-    f_bp = expected_ball_pass_hz(omega_rad_s)
+    f_bp = expected_ball_pass_hz(omega_rad_s, bearing)
     max_gap_s = MAX_GAP_BALL_PASSES / f_bp
     # before the gaps: at a speed too high for the rate every step is a gap of the ripple
-    fs_min = minimum_sample_rate_hz(omega_rad_s)
+    fs_min = minimum_sample_rate_hz(omega_rad_s, bearing=bearing)
     if fs < fs_min:
         raise TraceError(
             f"{where}: sampled at {fs:.6g} Hz, below the {fs_min:.4g} Hz needed at "
