@@ -248,6 +248,37 @@ def test_recurrent_events_kept_transient_still_trimmed():
     assert "trimmed a transient" in screen_trace(trace, 500.0, defect_lines=True).trace.repairs[0]
 
 
+def test_bearing_sets_the_rate_and_the_gaps_a_trace_needs():
+    """prepare_trace reads the limits off the bearing's own ball pass f_bp = Z/2 f_s (1 - d/D)
+    (Harris and Kotzalas 2006, eq. 7.21 at contact angle 0): a 6308 (8 balls) at 2000 rad/s
+    sampled at 20 kHz holds its harmonics below Nyquist, where the seed's bearing (13 balls)
+    needs 28 kHz; and a dropout of 0.3 of the seed's ball pass, beyond the quarter of a ball
+    pass that is filled in, is 0.18 of the 6308's longer one."""
+    from signatelec.config.catalogue import catalogue_bearing
+    from signatelec.measurement.traces import MAX_GAP_BALL_PASSES, minimum_sample_rate_hz
+
+    b = catalogue_bearing("6308")
+    f_bp = 0.5 * b.n_balls * 2000.0 / (2 * math.pi)
+    f_bp *= 1 - 2 * b.ball_radius_m / (b.outer_race_radius_m + b.inner_race_radius_m)
+    assert expected_ball_pass_hz(2000.0, b) == pytest.approx(f_bp, rel=1e-12)
+    assert minimum_sample_rate_hz(2000.0, bearing=b) < 20000.0 < minimum_sample_rate_hz(2000.0)
+    t = np.arange(8000) / 20000.0
+    r = 2.5e-3 * (1 + 2e-3 * np.cos(2 * np.pi * f_bp * t))
+    with pytest.raises(TraceError, match="below the 2.8.* Hz needed at 2000 rad/s"):
+        prepare_trace(t, r, 2000.0)
+    assert prepare_trace(t, r, 2000.0, bearing=b).sample_rate_hz == pytest.approx(20000.0)
+    # a dropout at 500 rad/s, 50 kHz: 0.3 of the seed's ball pass, 0.18 of the 6308's
+    f_seed, f_6308 = expected_ball_pass_hz(500.0), expected_ball_pass_hz(500.0, b)
+    t = np.arange(50000) / 50000.0
+    gap = (t > 0.5) & (t < 0.5 + 0.3 / f_seed)
+    assert 0.3 * f_6308 / f_seed < MAX_GAP_BALL_PASSES < 0.3
+    r = 2.5e-3 * (1 + 2e-3 * np.cos(2 * np.pi * f_6308 * t))
+    with pytest.raises(TraceError, match="gap longer than"):
+        prepare_trace(t[~gap], r[~gap], 500.0)
+    (repair,) = prepare_trace(t[~gap], r[~gap], 500.0, bearing=b).repairs  # (filled in)
+    assert repair.startswith("resampled to a uniform 50000 Hz")
+
+
 def test_bearing_places_the_ripple(model_file, tmp_path, capsys):
     """--bearing 6205: a ripple at the 6205's ball-pass frequency Z/2 f_s (1 - d/D) (Harris
     and Kotzalas 2006, eq. 7.21 at contact angle 0) is found there, and the load state is left
