@@ -825,6 +825,7 @@ def test_the_command_monitors_another_bearing(
     )  # fmt: skip
     text = capsys.readouterr().out
     assert code == 0, text
+    assert "load state not estimated  condition healthy" in text
     summary = json.loads((out / "summary.json").read_text())
     assert summary["settings"]["bearing"] == other_bearing.name
     assert any(n.startswith("load state not estimated") for n in summary["notes"])

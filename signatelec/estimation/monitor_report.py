@@ -443,6 +443,8 @@ def format_summary(summary: dict) -> str:
                 f"{s['clearance_m'] * 1e6:+.1f} um  {s['regime']} ({s['regime_probability']:.2f})"
                 + ("" if s.get("regime_confident", True) else ", not confident")
             )
+        elif summary["settings"].get("bearing"):  # another bearing than the seed's
+            line += "load state not estimated"
         else:
             line += "no load estimate (no window of it carries one)"
         if "condition" in s:
