@@ -775,7 +775,7 @@ def test_another_bearing_is_monitored_for_its_condition_alone(
     [
         (["--bearing", "6205x"], "--bearing '6205x': unknown bearing; known: seed,"),
         (["--bearing", "6205", "--condition-every", "0"], "--condition-every 0: no condition"),
-        (["--bearing", "6205", "--track-speed"], "--track-speed: tracks the seed's bearing's"),
+        (["--bearing", "6205", "--track-speed"], "--track-speed: tracks the ball-pass line of"),
         (["--bearing", "6205", "--model", "load-only"], "--bearing: the model knows the load"),
         # 3.17 cage revolutions of the 6205 at 500 rad/s, where the training windows span 6.3
         (["--bearing", "6205", "--window", "0.1"], "--window 0.1: 3.17 cage revolutions"),

@@ -48,8 +48,9 @@ def bearing_option(command):
         type=str,
         default=None,
         help="Catalogue designation of the bearing (`signatelec bearings`): its geometry places "
-        "the ball-pass and the defects' characteristic lines (default: the seed's bearing; the "
-        "load state is estimated for the seed's bearing only).",
+        "the ball-pass and the defects' characteristic lines (default: the bearing the model "
+        "learnt, the seed's for the default model; the load state is estimated for that bearing "
+        "only).",
     )(command)
 
 
@@ -126,11 +127,10 @@ def estimate(
     problem = input_size_problem(trace_file, TRACE_MAX_BYTES)
     if problem:
         raise InputError(f"trace {trace_file!r}: {problem}")
-    try:
+    source = f"trace {trace_file!r}"
+    try:  # before the model, whose first build takes minutes
         t, r, phase = read_trace(trace_file, time_column, resistance_column)
-        trace = prepare_trace(
-            t, r, omega_rad_s, source=f"trace {trace_file!r}", phase=phase, bearing=bearing
-        )
+        trace = prepare_trace(t, r, omega_rad_s, source=source, phase=phase, bearing=bearing)
     except TraceError as exc:
         raise InputError(str(exc)) from None
     try:
@@ -141,6 +141,12 @@ def estimate(
     except ModelError as exc:
         raise InputError(str(exc)) from None
     _check_prior(model, healthy_prior)
+    if bearing is None and model.bearing is not None:  # the bearing the model learnt
+        bearing = model.bearing
+        try:
+            trace = prepare_trace(t, r, omega_rad_s, source=source, phase=phase, bearing=bearing)
+        except TraceError as exc:
+            raise InputError(str(exc)) from None
     try:
         result = run_estimate(trace, omega_rad_s, model, bearing=bearing)
     except (TraceError, DomainError) as exc:
@@ -192,7 +198,7 @@ def train(dataset, out, quiet):
     if len(table) < 10:
         raise InputError(f"{where}: {len(table)} usable traces; training needs at least 10")
     try:
-        model = train_model(table, source=str(dataset))
+        model = train_model(table, source=str(dataset), bearing=table.attrs.get("bearing"))
     except ValueError as exc:
         raise InputError(f"{where}: {exc}") from None
     try:
@@ -332,6 +338,7 @@ def monitor(
     except ModelError as exc:
         raise InputError(str(exc)) from None
     _check_prior(model, healthy_prior)  # before the trace is read
+    settings = settings.for_model(model)
     try:
         settings.check_model(model)
     except TraceError as exc:

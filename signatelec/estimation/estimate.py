@@ -39,7 +39,7 @@ import math
 
 from signatelec.config.bearing import Bearing
 from signatelec.config.constraints import HEALTHY
-from signatelec.config.scene import Scene
+from signatelec.estimation.analysis import analyse_trace
 from signatelec.estimation.diagnose import assess_condition
 from signatelec.estimation.domain import (
     NO_LINE_REFUSE_SCORE,
@@ -74,10 +74,14 @@ def estimate(
     (:func:`~signatelec.estimation.diagnose.assess_condition`). Raises TraceError or
     DomainError (one line) when the trace cannot carry an answer (module docstring).
 
-    ``bearing``: the bearing's geometry (default: the seed's), which places the characteristic
-    lines the condition model reads. The load-state model learnt the seed's bearing only: for
-    another the condition is answered and the load state left out, with a note.
+    ``bearing``: the bearing's geometry (default: the one the model learnt, ``model.bearing``,
+    the seed's for the default model), which places the ball-pass and the characteristic
+    lines. The trace's features are read at the ball-pass line of the bearing the model
+    learnt (:meth:`~signatelec.estimation.models.LoadStateModel.knows`): for another bearing
+    the condition is answered and the load state left out, with a note.
     """
+    learnt = model.bearing  # (None: the seed's)
+    bearing = learnt if bearing is None else bearing
     domain = model.domain
     screened = screen_trace(
         trace,
@@ -88,7 +92,9 @@ def estimate(
     )
     trace, ripple = screened.trace, screened.ripple
     notes = list(screened.notes)
-    feats = trace_features(trace.resistance_ohm, trace.sample_rate_hz, omega_rad_s)
+    r, fs = trace.resistance_ohm, trace.sample_rate_hz
+    mine = None if learnt is None else analyse_trace(r, fs, omega_rad_s, bearing=learnt)
+    feats = trace_features(r, fs, omega_rad_s, analysis=mine)
     condition: dict = {}
     if model.condition is not None:
         condition, condition_notes = assess_condition(
@@ -100,14 +106,15 @@ def estimate(
             bearing=bearing,
         )
         notes += condition_notes
-    if bearing is not None and not is_seed_bearing(bearing):
+    if not model.knows(bearing):
+        known = "the seed's bearing" if learnt is None else f"the {learnt.name}"
         if not condition:
             raise DomainError(
-                f"{trace.source}: the model knows the seed's bearing only, and no condition "
+                f"{trace.source}: the model knows {known} only, and no condition "
                 f"model is there to assess this {bearing.name}"
             )
         notes.append(
-            f"load state not estimated: the load-state model learnt the seed's bearing only, "
+            f"load state not estimated: the load-state model learnt {known} only, "
             f"not the {bearing.name}"
         )
         # the trace's ball-pass figures of its own geometry (the features read the seed's)
@@ -183,11 +190,6 @@ def estimate(
                 "alike within this trace's noise, so a longer or quieter trace is needed to tell"
             )
     return _result(out, notes, trace, feats, ripple, model, omega_rad_s)
-
-
-def is_seed_bearing(bearing: Bearing) -> bool:
-    """Whether ``bearing`` is the seed's (the one the load-state model learnt)."""
-    return bearing == Scene().bearing
 
 
 def _confident_fault(condition: dict) -> bool:

@@ -36,6 +36,7 @@ from sklearn.model_selection import GroupKFold, KFold, StratifiedGroupKFold, Str
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
 
+from signatelec.config.bearing import Bearing
 from signatelec.estimation.domain import Domain
 from signatelec.estimation.forest import FlatForest
 
@@ -501,6 +502,13 @@ class LoadStateModel:
     #: :class:`LoadStateModel` trained on stretches' mean features: the noise averaged, the
     #: ripple's shape kept), which the monitor asks about a healthy stretch, or None.
     stretch: object | None = None
+    #: The bearing whose traces it learnt, its features read at that bearing's ball-pass line
+    #: (:class:`~signatelec.config.bearing.Bearing`), or None for the seed's.
+    bearing: Bearing | None = None
+
+    def knows(self, bearing: Bearing | None) -> bool:
+        """Whether it learnt the load state of ``bearing`` (None: the seed's)."""
+        return (self.bearing or Bearing()) == (bearing or Bearing())
 
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])

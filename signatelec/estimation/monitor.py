@@ -25,7 +25,7 @@ per window).
 With a condition model, one window every ``condition_every_s`` is assessed for the bearing's
 condition as well (:mod:`signatelec.estimation.health`: the first full window of a block once
 that much trace has passed; the others' condition columns stay empty). Another bearing than
-the seed's (``settings.bearing``) has no load state: only those windows are analysed.
+the model learnt (``settings.bearing``) has no load state: only those windows are analysed.
 
 The per-window table then goes to :mod:`signatelec.estimation.evidence` (change points,
 stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the output directory.
@@ -374,7 +374,7 @@ class _Windows:
             return
         x = np.stack([seg for _, seg, _ in windows])
         try:
-            analyses = analyse_windows(x, fs, [om for _, _, om in windows])
+            analyses = analyse_windows(x, fs, [om for _, _, om in windows], bearing=self.s.learnt)
         except ValueError as exc:
             for row, _, _ in windows:
                 row["status"] = f"refused: {exc}"
@@ -397,7 +397,6 @@ class _Windows:
         table = window_features(analyses)
         self.unmeasured = []  # (after: a Ctrl-C while measuring leaves them to be measured)
         column = feature_columns(analyses[0].n_harmonics)
-        # (another bearing's level alone: the others were read at the seed's ball-pass line)
         names = kept_features(self.model) if self.s.load_state else ("level_mean_ohm",)
         kept = table[:, [column[name] for name in names]].tolist()
         snr = table[:, column["harmonic_snr"]].tolist()
@@ -406,7 +405,8 @@ class _Windows:
             row.update(zip(names, kept[i], strict=True))
             if self.s.track_speed and snr[i] >= TRACK_MIN_SNR:
                 # the found line predicts the next window's speed (kinematics are linear in it)
-                self.tracked = found[i] / (expected_ball_pass_hz(1.0) * (1.0 + TYPICAL_SLIP))
+                f_per = expected_ball_pass_hz(1.0, self.s.learnt)
+                self.tracked = found[i] / (f_per * (1.0 + TYPICAL_SLIP))
             row["_features"] = table[i]
             if "_condition" in row:
                 self._assess(row, table[i], analyses[i])
@@ -417,7 +417,7 @@ class _Windows:
         segment, fs, omega = row.pop("_condition")
         names = trace_feature_names(analysis.n_harmonics)
         named = dict(zip(names, features.tolist(), strict=True))
-        # the analysis found the seed's ball-pass line: another bearing's is found again
+        # the analysis found the model's bearing's ball-pass line: another's is found again
         mine = analysis if self.s.load_state else None
         keys, note = assess_window(
             segment, fs, omega, named, self.model.condition, mine, self.s.bearing
@@ -551,7 +551,7 @@ def monitor_trace(
     followed to its end (module docstring). Raises TraceError (one line) when the trace or its
     first block is refused; Ctrl-C while following ends the reading and keeps what was analysed
     (``interrupted``)."""
-    s = settings.for_trace(path)
+    s = settings.for_trace(path).for_model(model)
     s.check()
     s.check_model(model)
     table = WindowTable()

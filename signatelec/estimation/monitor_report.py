@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from signatelec._version import __version__
+from signatelec.config.bearing import Bearing
 from signatelec.config.constraints import HEALTHY
 from signatelec.measurement.traces import time_text
 
@@ -216,7 +217,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 "omega_rad_s": settings.omega_rad_s,
                 "speed_column": settings.speed_column,
                 "track_speed": settings.track_speed,
-                "bearing": None if settings.load_state else settings.bearing.name,
+                "bearing": None if settings.bearing in (None, Bearing()) else settings.bearing.name,
                 **extra,
             },
             "notes": notes,

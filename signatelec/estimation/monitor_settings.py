@@ -11,7 +11,6 @@ import numpy as np
 
 from signatelec.config.bearing import Bearing
 from signatelec.estimation.diagnose import least_cage_revolutions
-from signatelec.estimation.estimate import is_seed_bearing
 from signatelec.estimation.health import CONDITION_EVERY_S
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
 from signatelec.measurement.traces import MIN_BALL_PASSES, TraceError, time_text
@@ -43,19 +42,36 @@ class MonitorSettings:
     follow_idle_s: float | None = None
     chunk_rows: int = CHUNK_ROWS
     condition_every_s: float | None = CONDITION_EVERY_S
-    #: The bearing's geometry, which places the ball-pass and the defects' lines (None: the
-    #: seed's). The load-state model learnt the seed's bearing only: another's windows carry
-    #: their condition alone (:attr:`load_state`), as ``estimate --bearing`` answers.
+    #: The bearing's geometry, which places the ball-pass and the defects' lines (None: the one
+    #: the model learnt, :meth:`for_model`). Another bearing than the model's has no load
+    #: state here: its windows carry their condition alone (:attr:`load_state`), as
+    #: ``estimate --bearing`` answers.
     bearing: Bearing | None = None
+    #: The bearing the load-state model learnt, whose ball-pass line the windows' features are
+    #: read at (None: the seed's; set by :meth:`for_model`).
+    learnt: Bearing | None = None
 
     @property
     def hop(self) -> float:
         return self.window_s if self.hop_s is None else self.hop_s
 
+    def for_model(self, model) -> MonitorSettings:
+        """The settings with the bearing the ``model`` learnt (``model.bearing``): the bearing
+        read when none is given."""
+        learnt = getattr(model, "bearing", None)
+        return replace(
+            self, bearing=learnt if self.bearing is None else self.bearing, learnt=learnt
+        )
+
     @property
     def load_state(self) -> bool:
-        """Whether the windows' load state is estimated: the bearing is the seed's."""
-        return self.bearing is None or is_seed_bearing(self.bearing)
+        """Whether the windows' load state is estimated: the model learnt the bearing."""
+        return (self.bearing or Bearing()) == (self.learnt or Bearing())
+
+    @property
+    def known(self) -> str:
+        """The bearing whose load state the model learnt, as the notes name it."""
+        return "the seed's bearing" if self.learnt is None else f"the {self.learnt.name}"
 
     @property
     def window_status(self) -> str:
@@ -64,25 +80,31 @@ class MonitorSettings:
         if self.load_state:
             return "ok"
         return (
-            "no load state: the load-state model learnt the seed's bearing only, not the "
+            f"no load state: the load-state model learnt {self.known} only, not the "
             f"{self.bearing.name}"
         )
 
     def check_model(self, model) -> None:
-        """TraceError when ``model`` has nothing to say of the bearing: another bearing than the
-        seed's with no condition assessed."""
+        """TraceError when ``model`` (:meth:`for_model`'s) has nothing to say of the bearing:
+        another bearing than the one it learnt with no condition assessed, windows too short
+        for the condition, or a speed tracked from a ripple not read."""
         if self.load_state:
             return
         name = self.bearing.name
+        if self.track_speed:
+            raise TraceError(
+                f"--track-speed: tracks the ball-pass line of {self.known} only, not this "
+                f"{name}'s (--bearing); give --omega or --speed-column"
+            )
         if getattr(model, "condition", None) is None:
             raise TraceError(
-                f"--bearing: the model knows the load state of the seed's bearing only, and no "
+                f"--bearing: the model knows the load state of {self.known} only, and no "
                 f"condition model is there to assess this {name}"
             )
         if self.condition_every_s is None:
             raise TraceError(
                 f"--condition-every 0: no condition assessed, and the load state is known for "
-                f"the seed's bearing only, not this {name} (--bearing); give a cadence in s"
+                f"{self.known} only, not this {name} (--bearing); give a cadence in s"
             )
         least, _ = least_cage_revolutions(model.condition)
         if self.omega_rad_s is not None:  # (a speed column's windows are told one by one)
@@ -115,11 +137,6 @@ class MonitorSettings:
             raise TraceError("give the speed one way: --omega RAD_S or --speed-column NAME")
         if s.track_speed and s.omega_rad_s is None:
             raise TraceError("--track-speed starts from --omega RAD_S; give it")
-        if s.track_speed and not s.load_state:
-            raise TraceError(
-                f"--track-speed: tracks the seed's bearing's ball-pass line only, not this "
-                f"{s.bearing.name}'s (--bearing); give --omega or --speed-column"
-            )
         if s.follow_idle_s is not None and not 0 < s.follow_idle_s < math.inf:
             # an infinite idle time would follow for ever: that is --follow without --idle
             raise TraceError(

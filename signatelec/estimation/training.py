@@ -19,6 +19,7 @@ import pandas as pd
 import sklearn
 
 from signatelec._version import __version__
+from signatelec.estimation.analysis import analyse_trace
 from signatelec.estimation.condition import (
     CONDITION_LABELS,
     CONDITION_TARGET,
@@ -237,11 +238,14 @@ def train_model(
     *,
     estimator: LoadStateEstimator | None = None,
     source: str = "",
+    bearing=None,
 ) -> LoadStateModel:
     """Fit a :class:`LoadStateEstimator` on a feature table with label columns.
 
     ``table`` holds :func:`model_features`, the labels present among ``TARGETS`` and
-    ``regime``, and ``run_id`` (or ``trace_id``) grouping the rows of one simulation run.
+    ``regime``, and ``run_id`` (or ``trace_id``) grouping the rows of one simulation run;
+    ``bearing``: the bearing of its traces, whose ball-pass line their features were read at
+    (None: the seed's; :func:`features_from_dataset` names it in ``table.attrs``).
     """
     features = model_features()
     missing = [c for c in features if c not in table.columns]
@@ -272,10 +276,19 @@ def train_model(
     }
     domain = Domain.fit(table, domain_features(features))
     condition = None
-    if CONDITION_TARGET in table.columns:
+    # (a table of one condition, a healthy dataset's, teaches no condition: it would call
+    # every trace that one)
+    if CONDITION_TARGET in table.columns and table[CONDITION_TARGET].nunique() > 1:
         condition = train_condition(table, source=source)
+    if bearing is not None:
+        info["bearing"] = bearing.name
     return LoadStateModel(
-        estimator=est, features=features, info=info, domain=domain, condition=condition
+        estimator=est,
+        features=features,
+        info=info,
+        domain=domain,
+        condition=condition,
+        bearing=bearing,
     )
 
 
@@ -383,11 +396,14 @@ def train_default_model(table: pd.DataFrame | None = None) -> LoadStateModel:
 
 
 def features_frame(
-    traces, sample_rates_hz, omegas_rad_s, n_harmonics: int = N_HARMONICS
+    traces, sample_rates_hz, omegas_rad_s, n_harmonics: int = N_HARMONICS, bearing=None
 ) -> pd.DataFrame:
-    """Features of many traces (any lengths), one row each."""
+    """Features of many traces (any lengths) of one bearing (default: the seed's, whose
+    ball-pass line they are read at), one row each."""
     rows = [
-        trace_features(r, fs, om, n_harmonics=n_harmonics)
+        trace_features(
+            r, analysis=analyse_trace(r, fs, om, n_harmonics=n_harmonics, bearing=bearing)
+        )
         for r, fs, om in zip(traces, sample_rates_hz, omegas_rad_s, strict=True)
     ]
     return pd.DataFrame(rows, columns=trace_feature_names(n_harmonics))
@@ -412,16 +428,21 @@ def _dataset_bearing(path: Path):
     spec_file = Path(path) / SPEC_FILE
     if not spec_file.is_file():
         return None
-    scene = json.loads(spec_file.read_text()).get("scene", {})
-    return Scene.from_dict({"bearing": scene.get("bearing", {})}).bearing
+    stored = json.loads(spec_file.read_text())
+    scene = stored.get("spec", stored).get("scene", {})  # (the spec as the job read it)
+    bearing = Scene.from_dict({"bearing": scene.get("bearing", {})}).bearing
+    return None if bearing == Scene().bearing else bearing
 
 
-def screened_traces(table: pd.DataFrame) -> tuple[list[np.ndarray], list[int], list[str]]:
+def screened_traces(
+    table: pd.DataFrame, bearing=None
+) -> tuple[list[np.ndarray], list[int], list[str]]:
     """The traces of a dataset table through the sanity layer
     (:func:`signatelec.measurement.sanity.screen_trace`): the (trimmed) traces kept, their row
     numbers, and one line per trace refused (a ball-pass line away from the labelled speed, a
     constant trace, a level that is not steady: labels that do not fit the trace). A trace
-    labelled with a condition may show that condition's own line instead of the ripple."""
+    labelled with a condition may show that condition's own line instead of the ripple.
+    ``bearing``: the traces' (default: the seed's), whose geometry places the lines."""
     kept, rows, refused = [], [], []
     conditions = table[CONDITION_TARGET].to_numpy() if CONDITION_TARGET in table else None
     for i, (r, fs, om) in enumerate(
@@ -430,8 +451,8 @@ def screened_traces(table: pd.DataFrame) -> tuple[list[np.ndarray], list[int], l
         name = f"trace {table['trace_id'].iloc[i]}" if "trace_id" in table else f"row {i}"
         label = conditions[i] if conditions is not None else None
         try:
-            trace = prepare_trace(np.arange(len(r)) / fs, r, om, source=name)
-            screened = screen_trace(trace, om, defect_lines=label is not None)
+            trace = prepare_trace(np.arange(len(r)) / fs, r, om, source=name, bearing=bearing)
+            screened = screen_trace(trace, om, defect_lines=label is not None, bearing=bearing)
             if screened.defect_line is not None and screened.defect_line[0] != label:
                 raise TraceError(f"{name}: {screened.ripple.problem()}")
             kept.append(screened.trace.resistance_ohm)
@@ -466,15 +487,15 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
     column = signal or "resistance_ohm"
     lengths = table[column].map(len)
     table = table[lengths > 0].reset_index(drop=True)
+    bearing = _dataset_bearing(path)  # (None: the seed's)
     if column == "resistance_ohm":
-        traces, rows, refused = screened_traces(table)
+        traces, rows, refused = screened_traces(table, bearing)
     else:
         traces, rows, refused = [np.asarray(x) for x in table[column]], list(range(len(table))), []
     table = table.iloc[rows].reset_index(drop=True)
     rates, omegas = table["sample_rate_hz"].to_numpy(), table["omega_rad_s"].to_numpy()
-    parts = [features_frame(traces, rates, omegas)]
+    parts = [features_frame(traces, rates, omegas, bearing=bearing)]
     if CONDITION_TARGET in table:
-        bearing = _dataset_bearing(path)
         parts.append(condition_frame(traces, rates, omegas, bearing))
     keep = [
         c
@@ -483,4 +504,5 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
     ]
     out = pd.concat([table[keep].reset_index(drop=True), *parts], axis=1)
     out.attrs["refused"] = refused
+    out.attrs["bearing"] = bearing
     return out
