@@ -222,7 +222,7 @@ def test_the_command_reports_the_condition(model_file, tile, tmp_path, capsys):
     out = path.parent / "out"
     assert [s["condition"] for s in summary["stretches"]] == ["healthy", "inner"]
     assert summary["settings"]["condition_every_s"] == 2.0
-    assert summary["settings"]["bearing"] is None
+    assert summary["settings"]["bearing"] is None and summary["settings"]["load_state"]
     assert [a["kind"] for a in summary["alarms"]] == ["condition"]
     assert "condition healthy -> inner" in text
     windows = pd.read_parquet(out / "windows.parquet")
@@ -828,6 +828,7 @@ def test_the_command_monitors_another_bearing(
     assert "load state not estimated  condition healthy" in text
     summary = json.loads((out / "summary.json").read_text())
     assert summary["settings"]["bearing"] == other_bearing.name
+    assert summary["settings"]["load_state"] is False
     assert any(n.startswith("load state not estimated") for n in summary["notes"])
     assert summary["trace"]["first_refusal"].startswith("refused: ")
     assert "ripple at 409" in summary["trace"]["first_refusal"]

@@ -30,7 +30,7 @@ from signatelec.estimation.models import LoadStateEstimator
 from signatelec.estimation.monitor import MonitorSettings, monitor_trace
 from signatelec.estimation.persistence import load_model, save_model
 from signatelec.estimation.training import features_from_dataset, train_model
-from signatelec.measurement.traces import prepare_trace
+from signatelec.measurement.traces import minimum_sample_rate_hz, prepare_trace
 from signatelec.physics.regimes import regime_of
 from signatelec.studies.monitor_records import whole_passes
 from tests.cli_run import run_main
@@ -82,6 +82,12 @@ def model_file(tmp_path_factory, bearing):
     # read at the 6205's lines (at the seed's, all but one were refused); measured: one trace
     # refused, whose ripple shows its second harmonic alone (its first near a null)
     assert table.attrs["bearing"] == bearing and len(table.attrs["refused"]) <= 3
+    # its features read at the 6205's line: CWRU's published BPFO of the 6205, 3.5848 times
+    # the shaft frequency (the seed's bearing's: 5.148), and the line found there
+    shaft_hz = table["omega_rad_s"] / (2.0 * np.pi)
+    assert table["ball_pass_expected_hz"].to_numpy() == pytest.approx(3.5848 * shaft_hz, rel=1e-4)
+    found = table["ball_pass_found_hz"] / table["ball_pass_expected_hz"] - 1.0
+    assert np.median(np.abs(found)) < 2e-3
     with threadpool_limits(1):
         estimator = LoadStateEstimator(max_iter=40, n_splits=2)
         model = train_model(table, estimator=estimator, bearing=table.attrs["bearing"])
@@ -113,6 +119,9 @@ def test_a_model_of_another_bearing_estimates_its_load_state(model_file, bearing
     assert model.bearing == bearing and model.knows(bearing) and not model.knows(None)
     assert model.info["bearing"] == bearing.name
     assert model.condition is None  # a healthy dataset teaches no condition
+    old = load_model(model_file)  # as pickled before models kept their bearing: the seed's
+    del old.__dict__["bearing"]
+    assert old.bearing is None and old.knows(None) and not old.knows(bearing)
     rng = np.random.default_rng(11)
     errors, right = [], []
     for _ in range(8):
@@ -141,6 +150,20 @@ def test_the_commands_read_the_bearing_the_model_learnt(model_file, bearing, tmp
     assert out["trace"]["ball_pass_expected_hz"] == pytest.approx(kinematic, rel=1e-12)
     assert out["trace"]["ball_pass_found_hz"] == pytest.approx(kinematic, rel=2e-3)
     assert out["radial_load_n"] == pytest.approx(f_r, rel=0.01)
+    # resampled to 1.2 times the rate the 6205's harmonics need: below the seed's bearing's
+    # (its f_bp 1.436 times the 6205's), which the trace is checked against only if asked
+    fs = 1.2 * minimum_sample_rate_hz(omega, bearing=bearing)
+    assert fs < minimum_sample_rate_hz(omega)
+    grid = np.arange(0.0, t[-1], 1.0 / fs)
+    slow = tmp_path / "slow.csv"
+    slow_r = np.interp(grid, t, r)
+    pd.DataFrame({"time_s": grid, "resistance_ohm": slow_r}).to_csv(slow, index=False)
+    for extra, refused in (([], False), (["--bearing", "seed"], True)):
+        capsys.readouterr()
+        run_main(
+            ["estimate", str(slow), "--omega", f"{omega!r}", "--model", str(model_file), *extra]
+        )
+        assert ("sampled at" in capsys.readouterr().err) == refused
     # the seed's example trace: read as a 6205's, a wrong speed; as the seed's, a bearing the
     # model does not know
     example = ["estimate", str(EXAMPLE), "--omega", "500", "--model", str(model_file)]
@@ -160,3 +183,5 @@ def test_the_commands_read_the_bearing_the_model_learnt(model_file, bearing, tmp
     windows = table.frame()
     assert (windows["status"] == "ok").mean() > 0.9
     assert windows["radial_load_n"].median() == pytest.approx(f_r, rel=0.01)
+    kinematic = bearing.ball_pass_frequency_hz(omega)
+    assert windows["ball_pass_found_hz"].median() == pytest.approx(kinematic, rel=2e-3)

@@ -127,26 +127,25 @@ def estimate(
     problem = input_size_problem(trace_file, TRACE_MAX_BYTES)
     if problem:
         raise InputError(f"trace {trace_file!r}: {problem}")
-    source = f"trace {trace_file!r}"
-    try:  # before the model, whose first build takes minutes
-        t, r, phase = read_trace(trace_file, time_column, resistance_column)
-        trace = prepare_trace(t, r, omega_rad_s, source=source, phase=phase, bearing=bearing)
-    except TraceError as exc:
-        raise InputError(str(exc)) from None
-    try:
-        if model_path:
-            model = load_model(model_path)
-        else:
-            model = default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
+    try:  # a model file first, quick to load: the bearing it learnt is the trace's default
+        model = load_model(model_path) if model_path else None
     except ModelError as exc:
         raise InputError(str(exc)) from None
-    _check_prior(model, healthy_prior)
-    if bearing is None and model.bearing is not None:  # the bearing the model learnt
+    if bearing is None and model is not None:
         bearing = model.bearing
+    try:  # before the default model (the seed's bearing's), whose first build takes minutes
+        t, r, phase = read_trace(trace_file, time_column, resistance_column)
+        trace = prepare_trace(
+            t, r, omega_rad_s, source=f"trace {trace_file!r}", phase=phase, bearing=bearing
+        )
+    except TraceError as exc:
+        raise InputError(str(exc)) from None
+    if model is None:
         try:
-            trace = prepare_trace(t, r, omega_rad_s, source=source, phase=phase, bearing=bearing)
-        except TraceError as exc:
+            model = default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
+        except ModelError as exc:
             raise InputError(str(exc)) from None
+    _check_prior(model, healthy_prior)
     try:
         result = run_estimate(trace, omega_rad_s, model, bearing=bearing)
     except (TraceError, DomainError) as exc:
@@ -207,8 +206,9 @@ def train(dataset, out, quiet):
         raise InputError(f"--out {out!r}: cannot write there ({exc.strerror or exc})") from None
     if not quiet:
         info = model.info
+        of = f" of the {info['bearing']}" if info.get("bearing") else ""
         click.echo(
-            f"trained on {info['n_rows']} traces of {info['n_runs']} runs "
+            f"trained on {info['n_rows']} traces of {info['n_runs']} runs{of} "
             f"({', '.join(info['targets'])}) in {info['fit_s']:.1f} s; wrote {out}"
         )
 
@@ -317,6 +317,8 @@ def monitor(
     try:  # TraceError is a ValueError: the Python functions refuse with the same line
         settings = settings.for_trace(trace_file)
         settings.check()
+        if model_path is None:  # the default model's bearing, the seed's: told at once
+            settings.check_speed()
         check_settings(settings.hop, false_alarm_rate, load_threshold)
         check_healthy_prior(healthy_prior)
     except ValueError as exc:

@@ -117,7 +117,7 @@ def estimate(
             f"load state not estimated: the load-state model learnt {known} only, "
             f"not the {bearing.name}"
         )
-        # the trace's ball-pass figures of its own geometry (the features read the seed's)
+        # the trace's ball-pass figures of its own geometry (the features read the model's)
         feats = feats | {
             "ball_pass_expected_hz": ripple.expected_hz,
             "ball_pass_found_hz": ripple.frequency_hz,

@@ -48,6 +48,7 @@ import numpy as np
 import pandas as pd
 
 from signatelec.config.constraints import HEALTHY
+from signatelec.estimation.analysis import analyse_trace
 from signatelec.estimation.changes import change_points
 from signatelec.estimation.condition import PROBABILITY, SEVERITY_TARGET
 from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
@@ -90,13 +91,22 @@ def assess_window(
 
 
 def defect_explains(
-    trace, omega_rad_s: float, model, ripple, window_s: float, screened: int, bearing=None
+    trace,
+    omega_rad_s: float,
+    model,
+    ripple,
+    window_s: float,
+    screened: int,
+    bearing=None,
+    learnt=None,
 ):
     """Whether the strongest line of the first ``screened`` samples of a block's ``trace``,
     away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.sanity.
     defect_line_of`, of ``bearing``) that the condition ``model`` confidently calls on the
     block's first ``window_s`` (its training traces' length), as ``estimate`` keeps a trace
-    whose strongest line a confident call of that very condition explains."""
+    whose strongest line a confident call of that very condition explains; its load features
+    read at the ball-pass line of ``learnt``, the bearing the model learnt (None: the seed's),
+    as ``estimate`` reads them."""
     fs = trace.sample_rate_hz
     seg = trace.resistance_ohm[: int(round(window_s * fs))]
     line = (
@@ -106,7 +116,8 @@ def defect_explains(
     )
     if line is None:
         return False
-    feats = trace_features(seg, fs, omega_rad_s)
+    mine = None if learnt is None else analyse_trace(seg, fs, omega_rad_s, bearing=learnt)
+    feats = trace_features(seg, fs, omega_rad_s, analysis=mine)
     keys, _ = assess_window(seg, fs, omega_rad_s, feats, model, bearing=bearing)
     p = keys.get(f"{PROBABILITY}{line[0]}")
     return keys["condition"] == line[0] and p is not None and p >= CONFIDENT_CONDITION

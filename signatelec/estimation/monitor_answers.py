@@ -64,8 +64,15 @@ def screen_block(
         ripple.status == "elsewhere"
         and window_s is not None
         and defect_explains(
-            trace, omega, getattr(model, "condition", None), ripple, window_s, n, bearing
-        )
+            trace,
+            omega,
+            getattr(model, "condition", None),
+            ripple,
+            window_s,
+            n,
+            bearing,
+            getattr(model, "bearing", None),
+        )  # fmt: skip
     ):
         return "defect", note if first else None
     if ripple.status in ("elsewhere", "constant"):

@@ -171,6 +171,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
     """The content of ``summary.json``; ``model``: the load-state model, whose training ranges
     (and its faulty model's) the stretches are qualified against (:func:`qualify`)."""
     windows = table.frame()
+    settings = settings if model is None else settings.for_model(model)  # (its bearing)
     model = model if settings.load_state else None  # (another bearing's: no load state)
     faulty = getattr(model, "faulty", None)
     notes = list(table.notes) + qualify(
@@ -217,7 +218,9 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 "omega_rad_s": settings.omega_rad_s,
                 "speed_column": settings.speed_column,
                 "track_speed": settings.track_speed,
+                # the bearing read (None: the seed's), and whether the model learnt its load
                 "bearing": None if settings.bearing in (None, Bearing()) else settings.bearing.name,
+                "load_state": settings.load_state,
                 **extra,
             },
             "notes": notes,
@@ -307,8 +310,8 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
     status = windows["status"] if "status" in windows else pd.Series(dtype=str)
     if status.str.startswith("no load state").any():
         ax.text(
-            0.5, 0.5, "load state not estimated: the load-state model learnt the seed's bearing "
-            "only", ha="center", fontsize=8, transform=ax.transAxes,
+            0.5, 0.5, "load state not estimated: the load-state model learnt another bearing",
+            ha="center", fontsize=8, transform=ax.transAxes,
         )  # fmt: skip
         ax.set_yticks([])
     if t.size and "radial_load_n" in ok:
@@ -444,7 +447,7 @@ def format_summary(summary: dict) -> str:
                 f"{s['clearance_m'] * 1e6:+.1f} um  {s['regime']} ({s['regime_probability']:.2f})"
                 + ("" if s.get("regime_confident", True) else ", not confident")
             )
-        elif summary["settings"].get("bearing"):  # another bearing than the seed's
+        elif not summary["settings"].get("load_state", True):  # a bearing the model did not learn
             line += "load state not estimated"
         else:
             line += "no load estimate (no window of it carries one)"

@@ -84,18 +84,24 @@ class MonitorSettings:
             f"{self.bearing.name}"
         )
 
+    def check_speed(self) -> None:
+        """TraceError for a speed tracked from a ripple that is not read: that of another
+        bearing than the one the model learnt (:attr:`learnt`: the seed's, the default model's,
+        before :meth:`for_model`)."""
+        if self.track_speed and not self.load_state:
+            raise TraceError(
+                f"--track-speed: tracks the ball-pass line of {self.known} only, not this "
+                f"{self.bearing.name}'s (--bearing); give --omega or --speed-column"
+            )
+
     def check_model(self, model) -> None:
         """TraceError when ``model`` (:meth:`for_model`'s) has nothing to say of the bearing:
         another bearing than the one it learnt with no condition assessed, windows too short
         for the condition, or a speed tracked from a ripple not read."""
+        self.check_speed()
         if self.load_state:
             return
         name = self.bearing.name
-        if self.track_speed:
-            raise TraceError(
-                f"--track-speed: tracks the ball-pass line of {self.known} only, not this "
-                f"{name}'s (--bearing); give --omega or --speed-column"
-            )
         if getattr(model, "condition", None) is None:
             raise TraceError(
                 f"--bearing: the model knows the load state of {self.known} only, and no "
