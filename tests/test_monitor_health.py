@@ -835,3 +835,23 @@ def test_the_command_monitors_another_bearing(
     assert [s["condition"] for s in summary["stretches"]] == ["healthy"]
     assert "radial_load_n" not in summary["stretches"][0]
     assert (out / "monitor.png").stat().st_size > 0
+
+
+def test_another_bearing_tracked_is_refused_before_the_default_model(
+    other_tile, other_bearing, tmp_path, capsys, monkeypatch
+):
+    """The default model learnt the seed's bearing: --track-speed with --bearing 6205 is refused
+    in one line before it is built or loaded (its first build takes minutes)."""
+    import signatelec.estimation.persistence as persistence
+
+    def unwanted(**_):
+        raise AssertionError("the default model was asked for")
+
+    monkeypatch.setattr(persistence, "default_model", unwanted)
+    path = _record(other_tile, [("healthy", 2.0)], tmp_path / "short.parquet", 0, other_bearing)
+    out = tmp_path / "out"
+    args = ["monitor", str(path), "--out", str(out), "--omega", "500", "--bearing", "6205"]
+    code = run_main([*args, "--track-speed", "--quiet"])
+    (err,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "--track-speed: tracks the ball-pass line of the seed's bearing" in err
+    assert not out.exists()
