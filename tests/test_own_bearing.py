@@ -150,6 +150,7 @@ def test_the_commands_read_the_bearing_the_model_learnt(model_file, bearing, tmp
     assert out["trace"]["ball_pass_expected_hz"] == pytest.approx(kinematic, rel=1e-12)
     assert out["trace"]["ball_pass_found_hz"] == pytest.approx(kinematic, rel=2e-3)
     assert out["radial_load_n"] == pytest.approx(f_r, rel=0.01)
+    assert out["model"]["bearing"] == bearing.name
     # resampled to 1.2 times the rate the 6205's harmonics need: below the seed's bearing's
     # (its f_bp 1.436 times the 6205's), which the trace is checked against only if asked
     fs = 1.2 * minimum_sample_rate_hz(omega, bearing=bearing)

@@ -223,7 +223,9 @@ def _result(out, notes, trace, feats, ripple, model, omega_rad_s=None) -> dict:
         "noise_rms_rel": feats["noise_rms_rel"],
         "repairs": list(trace.repairs),
     }
-    out["model"] = {k: model.info.get(k) for k in ("trained_on", "n_runs", "n_rows", "signatelec")}
+    # (``bearing``: the one it learnt, None for the seed's)
+    keys = ("trained_on", "n_runs", "n_rows", "signatelec", "bearing")
+    out["model"] = {k: model.info.get(k) for k in keys}
     return out
 
 
