@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, fields, replace
+from functools import cache
 
 from signatelec.config.constraints import BEARING, MATERIAL, Checker
 
@@ -269,6 +270,17 @@ def validate_bearing(b: Bearing, section: str = "bearing") -> None:
             )
         for row in MATERIAL:
             check.check(row, getattr(m, row.key), f"{section}.{mat_key}.{row.key}")
+
+
+@cache
+def seed_bearing() -> Bearing:
+    """The seed's bearing (table 1), ``Bearing()``, built and validated once."""
+    return Bearing()
+
+
+def same_bearing(a: Bearing | None, b: Bearing | None) -> bool:
+    """Whether ``a`` and ``b`` are one bearing, None standing for the seed's."""
+    return (a or seed_bearing()) == (b or seed_bearing())
 
 
 # --- equivalent quantities (seed eqs 12-13, table 2) -----------------------------------------

@@ -67,7 +67,7 @@ from dataclasses import asdict, dataclass
 from numbers import Integral, Real
 from typing import TYPE_CHECKING
 
-from signatelec.config.bearing import STEEL, Bearing, BearingError, Material
+from signatelec.config.bearing import STEEL, Bearing, BearingError, Material, seed_bearing
 from signatelec.physics.kinematics import characteristic_orders
 
 if TYPE_CHECKING:  # imported where the table is made: a scene needs no pandas
@@ -149,7 +149,7 @@ def inner_ring_mass_kg(inner_race_radius_m: float, bore_diameter_m: float, width
     )
 
 
-_SEED = Bearing()
+_SEED = seed_bearing()
 
 _ENTRIES = (
     CatalogueEntry(

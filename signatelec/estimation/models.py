@@ -36,7 +36,7 @@ from sklearn.model_selection import GroupKFold, KFold, StratifiedGroupKFold, Str
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_consistent_length, check_is_fitted, validate_data
 
-from signatelec.config.bearing import Bearing
+from signatelec.config.bearing import Bearing, same_bearing
 from signatelec.estimation.domain import Domain
 from signatelec.estimation.forest import FlatForest
 
@@ -508,7 +508,7 @@ class LoadStateModel:
 
     def knows(self, bearing: Bearing | None) -> bool:
         """Whether it learnt the load state of ``bearing`` (None: the seed's)."""
-        return (self.bearing or Bearing()) == (bearing or Bearing())
+        return same_bearing(self.bearing, bearing)
 
     def predict_frame(self, features: pd.DataFrame) -> pd.DataFrame:
         return self.estimator.predict_frame(features[self.features])

@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from signatelec._version import __version__
-from signatelec.config.bearing import Bearing
+from signatelec.config.bearing import same_bearing
 from signatelec.config.constraints import HEALTHY
 from signatelec.measurement.traces import time_text
 
@@ -219,7 +219,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 "speed_column": settings.speed_column,
                 "track_speed": settings.track_speed,
                 # the bearing read (None: the seed's), and whether the model learnt its load
-                "bearing": None if settings.bearing in (None, Bearing()) else settings.bearing.name,
+                "bearing": None if same_bearing(settings.bearing, None) else settings.bearing.name,
                 "load_state": settings.load_state,
                 **extra,
             },

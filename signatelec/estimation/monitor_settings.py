@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from signatelec.config.bearing import Bearing
+from signatelec.config.bearing import Bearing, same_bearing
 from signatelec.estimation.diagnose import least_cage_revolutions
 from signatelec.estimation.health import CONDITION_EVERY_S
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
@@ -66,7 +66,7 @@ class MonitorSettings:
     @property
     def load_state(self) -> bool:
         """Whether the windows' load state is estimated: the model learnt the bearing."""
-        return (self.bearing or Bearing()) == (self.learnt or Bearing())
+        return same_bearing(self.bearing, self.learnt)
 
     @property
     def known(self) -> str:

@@ -26,14 +26,8 @@ and Signal Processing 25 (2011) 485-520, eqs 1-4.
 from __future__ import annotations
 
 import math
-from functools import cache
 
-from signatelec.config.bearing import Bearing, BearingError
-
-
-@cache
-def _default_bearing() -> Bearing:
-    return Bearing()
+from signatelec.config.bearing import Bearing, BearingError, seed_bearing
 
 
 def shaft_frequency_hz(omega_rad_s: float) -> float:
@@ -55,7 +49,7 @@ def cage_frequency_hz(
     omega_rad_s: float, bearing: Bearing | None = None, contact_angle_rad: float = 0.0
 ) -> float:
     """Cage (fundamental train) frequency FTF = f_s / 2 (1 - D cos(alpha) / d_m), Hz."""
-    ratio = _diameter_ratio(bearing or _default_bearing(), contact_angle_rad)
+    ratio = _diameter_ratio(bearing or seed_bearing(), contact_angle_rad)
     return 0.5 * shaft_frequency_hz(omega_rad_s) * (1.0 - ratio)
 
 
@@ -63,7 +57,7 @@ def ball_pass_frequency_outer_hz(
     omega_rad_s: float, bearing: Bearing | None = None, contact_angle_rad: float = 0.0
 ) -> float:
     """Ball pass frequency over a point of the fixed outer race, BPFO = Z FTF, Hz."""
-    b = bearing or _default_bearing()
+    b = bearing or seed_bearing()
     return b.n_balls * cage_frequency_hz(omega_rad_s, b, contact_angle_rad)
 
 
@@ -71,7 +65,7 @@ def ball_pass_frequency_inner_hz(
     omega_rad_s: float, bearing: Bearing | None = None, contact_angle_rad: float = 0.0
 ) -> float:
     """Ball pass frequency over a point of the inner race, BPFI = Z f_s / 2 (1 + D cos / d_m)."""
-    b = bearing or _default_bearing()
+    b = bearing or seed_bearing()
     ratio = _diameter_ratio(b, contact_angle_rad)
     return 0.5 * b.n_balls * shaft_frequency_hz(omega_rad_s) * (1.0 + ratio)
 
@@ -80,7 +74,7 @@ def ball_spin_frequency_hz(
     omega_rad_s: float, bearing: Bearing | None = None, contact_angle_rad: float = 0.0
 ) -> float:
     """Ball spin frequency relative to the cage, BSF = d_m / 2D f_s (1 - (D cos / d_m)^2), Hz."""
-    b = bearing or _default_bearing()
+    b = bearing or seed_bearing()
     ratio = _diameter_ratio(b, contact_angle_rad)
     pitch_over_ball = (b.inner_race_radius_m + b.outer_race_radius_m) / (2.0 * b.ball_radius_m)
     return 0.5 * pitch_over_ball * shaft_frequency_hz(omega_rad_s) * (1.0 - ratio**2)
@@ -104,7 +98,7 @@ def characteristic_frequencies_hz(
     (the measured speed), Hz: ``shaft`` (f_s: unbalance), ``ftf`` (cage), ``bpfo`` (outer-race
     defect), ``bpfi`` (inner-race defect), ``bsf`` (ball spin) and ``ball_defect`` = 2 BSF (a
     spall on a ball strikes both races once per spin revolution)."""
-    b = bearing or _default_bearing()
+    b = bearing or seed_bearing()
     bsf = ball_spin_frequency_hz(omega_rad_s, b, contact_angle_rad)
     return {
         "shaft": shaft_frequency_hz(omega_rad_s),
@@ -124,4 +118,4 @@ def expected_ball_pass_hz(omega_rad_s: float, bearing: Bearing | None = None) ->
     zero, computed as Z times the model's cage speed (:meth:`Bearing.ball_pass_frequency_hz`),
     the form the simulations, features and data sets have always used.
     """
-    return (bearing or _default_bearing()).ball_pass_frequency_hz(omega_rad_s)
+    return (bearing or seed_bearing()).ball_pass_frequency_hz(omega_rad_s)
