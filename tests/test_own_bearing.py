@@ -29,7 +29,7 @@ from signatelec.estimation.estimate import estimate
 from signatelec.estimation.models import LoadStateEstimator
 from signatelec.estimation.monitor import MonitorSettings, monitor_trace
 from signatelec.estimation.persistence import load_model, save_model
-from signatelec.estimation.training import features_from_dataset, train_model
+from signatelec.estimation.training import features_from_dataset, table_bearing, train_model
 from signatelec.measurement.traces import minimum_sample_rate_hz, prepare_trace
 from signatelec.physics.regimes import regime_of
 from signatelec.studies.monitor_records import whole_passes
@@ -81,7 +81,11 @@ def model_file(tmp_path_factory, bearing):
     table = features_from_dataset(where / "ds")
     # read at the 6205's lines (at the seed's, all but one were refused); measured: one trace
     # refused, whose ripple shows its second harmonic alone (its first near a null)
-    assert table.attrs["bearing"] == bearing and len(table.attrs["refused"]) <= 3
+    assert table_bearing(table) == bearing and len(table.attrs["refused"]) <= 3
+    # a Parquet file of the table keeps the bearing its features were read at
+    table.to_parquet(where / "features.parquet")
+    table = features_from_dataset(where / "features.parquet")
+    assert table_bearing(table) == bearing
     # its features read at the 6205's line: CWRU's published BPFO of the 6205, 3.5848 times
     # the shaft frequency (the seed's bearing's: 5.148), and the line found there
     shaft_hz = table["omega_rad_s"] / (2.0 * np.pi)
@@ -90,7 +94,7 @@ def model_file(tmp_path_factory, bearing):
     assert np.median(np.abs(found)) < 2e-3
     with threadpool_limits(1):
         estimator = LoadStateEstimator(max_iter=40, n_splits=2)
-        model = train_model(table, estimator=estimator, bearing=table.attrs["bearing"])
+        model = train_model(table, estimator=estimator, bearing=table_bearing(table))
     path = where / "6205.model"
     save_model(model, path)
     return path

@@ -177,7 +177,7 @@ def train(dataset, out, quiet):
     score of `signatelec estimate` compares with.
     """
     from signatelec.estimation.persistence import save_model
-    from signatelec.estimation.training import features_from_dataset, train_model
+    from signatelec.estimation.training import features_from_dataset, table_bearing, train_model
 
     check_writable_file(out)
     where = f"dataset {dataset!r}"
@@ -197,7 +197,7 @@ def train(dataset, out, quiet):
     if len(table) < 10:
         raise InputError(f"{where}: {len(table)} usable traces; training needs at least 10")
     try:
-        model = train_model(table, source=str(dataset), bearing=table.attrs.get("bearing"))
+        model = train_model(table, source=str(dataset), bearing=table_bearing(table))
     except ValueError as exc:
         raise InputError(f"{where}: {exc}") from None
     try:

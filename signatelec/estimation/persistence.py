@@ -190,6 +190,11 @@ def load_model(path: str | Path) -> LoadStateModel:
         raise ModelError(path, f"the model cannot be read ({type(exc).__name__})") from None
     if not isinstance(model, LoadStateModel) or model.domain is None:
         raise ModelError(path, "does not hold a load-state model with its training domain")
+    condition = getattr(model, "condition", None)
+    if condition is not None and len(condition.estimator.classes_) < 2:
+        # a file trained on one condition (a healthy dataset's) before such a table trained
+        # none: it would call every trace that one, with certainty
+        model.condition = None
     return model
 
 

@@ -19,6 +19,7 @@ import pandas as pd
 import sklearn
 
 from signatelec._version import __version__
+from signatelec.config.bearing import Bearing, same_bearing
 from signatelec.estimation.analysis import analyse_trace
 from signatelec.estimation.condition import (
     CONDITION_LABELS,
@@ -245,7 +246,8 @@ def train_model(
     ``table`` holds :func:`model_features`, the labels present among ``TARGETS`` and
     ``regime``, and ``run_id`` (or ``trace_id``) grouping the rows of one simulation run;
     ``bearing``: the bearing of its traces, whose ball-pass line their features were read at
-    (None: the seed's; :func:`features_from_dataset` names it in ``table.attrs``).
+    (None: the seed's; :func:`table_bearing` reads it from a table of
+    :func:`features_from_dataset`).
     """
     features = model_features()
     missing = [c for c in features if c not in table.columns]
@@ -431,7 +433,7 @@ def _dataset_bearing(path: Path):
     stored = json.loads(spec_file.read_text())
     scene = stored.get("spec", stored).get("scene", {})  # (the spec as the job read it)
     bearing = Scene.from_dict({"bearing": scene.get("bearing", {})}).bearing
-    return None if bearing == Scene().bearing else bearing
+    return None if same_bearing(bearing, None) else bearing
 
 
 def screened_traces(
@@ -504,5 +506,16 @@ def features_from_dataset(path: str | Path) -> pd.DataFrame:
     ]
     out = pd.concat([table[keep].reset_index(drop=True), *parts], axis=1)
     out.attrs["refused"] = refused
-    out.attrs["bearing"] = bearing
+    # as a dict, which a Parquet file of the table keeps (pandas writes attrs as JSON)
+    out.attrs["bearing"] = None if bearing is None else bearing.to_dict()
     return out
+
+
+def table_bearing(table: pd.DataFrame) -> Bearing | None:
+    """The bearing whose ball-pass line a feature table's features were read at, as
+    :func:`features_from_dataset` names it in ``table.attrs`` (kept by a Parquet file of the
+    table); None: the seed's, or a table that does not say (pipelines/load_state.py's)."""
+    stored = table.attrs.get("bearing")
+    if stored is None:
+        return None
+    return stored if isinstance(stored, Bearing) else Bearing.from_dict(stored)
