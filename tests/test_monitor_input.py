@@ -130,6 +130,30 @@ def test_standard_input_refusals(monkeypatch):
     assert message.startswith("--idle 2.0: ") and "standard input is read to its end" in message
 
 
+def test_standard_input_header_is_checked_before_the_model(monkeypatch, tmp_path, capsys):
+    """A stream whose header lacks a column is refused before the model is asked for (the
+    default model's first build takes minutes), in one line; a good header is left in the
+    stream, whose every row is then read."""
+    import signatelec.estimation.persistence as persistence
+    from signatelec.measurement.stream import check_trace_file
+
+    def no_model(*args, **kwargs):
+        raise AssertionError("the model was asked for before the header was checked")
+
+    monkeypatch.setattr(persistence, "default_model", no_model)
+    text = b"# logger 7\ntime_s,resistance\n0.0,0.003\n"
+    monkeypatch.setattr("sys.stdin", _Pipe([text], pause_s=0.0))
+    code = run_main(["monitor", "-", "--out", str(tmp_path / "out"), "--omega", "500"])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "trace on standard input" in line and "resistance_ohm" in line, line
+    assert not (tmp_path / "out").exists()
+    rows = "".join(f"{i / FS!r};{3e-3 + 1e-6 * i!r}\n" for i in range(500))
+    monkeypatch.setattr("sys.stdin", _Pipe([f"time_s;resistance_ohm\n{rows}".encode()], 0.0))
+    check_trace_file("-")
+    chunks = list(read_chunks("-"))
+    assert sum(c.time_s.size for c in chunks) == 500 and chunks[0].time_s[1] == 1 / FS
+
+
 def test_hop_overlap_bounded(tmp_path):
     """A hop far below the window multiplies the windows of a block analysed together (a hop
     of 1e-5 s on 0.2 s windows at 20 kHz was killed for lack of memory): refused beyond

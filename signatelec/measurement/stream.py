@@ -313,22 +313,43 @@ def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
     """(header line, separator) of a CSV file or stream, its columns checked; ``fh`` left
     after the header (the separator sniffed from the header and the lines after it, those of
     a stream as far as they have arrived)."""
-    import pandas as pd
 
     header = _header(fh, follow, poll_s, where, idle_s)
     if fh.seekable():
         start = fh.tell()
-        sep = _separator(header + fh.read(4096))
+        after = fh.read(4096)
         fh.seek(start)
     else:
-        sep = _separator(header + fh.peek(4096)[:4096])
+        after = fh.peek(4096)[:4096]
+    return header, _checked_header(header, after, names, where)
+
+
+def _checked_header(header: bytes, after: bytes, names, where) -> str:
+    """The separator of a CSV header line (sniffed from it and ``after``, the bytes that
+    follow it), its columns checked."""
+    import pandas as pd
+
+    sep = _separator(header + after)
     try:
         columns = header_names(io.BytesIO(header), sep=sep)
     except (ValueError, pd.errors.ParserError) as exc:
         # UnicodeDecodeError is a ValueError: a binary file given as CSV
         raise TraceError(f"{where}: cannot be read as csv (header line: {_first(exc)})") from None
     check_columns(columns, names, where)
-    return header, sep
+    return sep
+
+
+def _peeked_header(names, where) -> None:
+    """Check the header line of standard input among the bytes that have arrived (waiting
+    for the first), without taking them from the stream; nothing if it is not all there."""
+    peek = getattr(getattr(sys.stdin, "buffer", None), "peek", None)
+    if peek is None:
+        return
+    lines = peek(_LINE_BYTES).split(b"\n")
+    for i, line in enumerate(lines[:-1]):  # (complete lines only)
+        if line.strip() and not line.startswith(b"#"):
+            _checked_header(line + b"\n", b"\n".join(lines[i + 1 :])[:4096], names, where)
+            return
 
 
 def _csv_chunks(path, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[Chunk]:
@@ -443,11 +464,13 @@ def check_trace_file(
     """Refuse (TraceError, the line :func:`read_chunks` would give) what can be told of a trace
     file without reading its rows: it exists, is readable, of a known format, its columns are
     there (a Parquet footer, a CSV header line; a file being followed may not have its header
-    yet, and is not waited for; standard input is not read). Cheap: run it before anything
-    long."""
+    yet, and is not waited for; standard input's is read if it has arrived, and left in the
+    stream). Cheap: run it before anything long."""
     p, where, names, kind = _checked(path, time_column, resistance_column, speed_column, follow)
     if kind == "parquet":
         _parquet_file(p, names, where)
+    elif p is None:
+        _peeked_header(names, where)
     elif not follow and p is not None:
         with _open(p, where) as fh:
             _csv_header(fh, names, where, False, 0.0, None)
