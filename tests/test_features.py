@@ -255,6 +255,30 @@ def test_windows_analysed_together_equal_one_by_one(clean_signal):
         assert measured.tolist() == list(batch.values())
 
 
+def test_what_no_feature_asked_for_is_left_out(clean_signal):
+    """The analysis computes what only some features read when they are asked for: the
+    residual's MAD (one sort per row) for ``noise_mad_rel``, the fold at f_bp for the fold
+    features; the model's features ask for neither. Without them those features are NaN and
+    every other is the full analysis's, to the bit."""
+    from signatelec.estimation.analysis import analyse_windows
+    from signatelec.estimation.training import model_features
+
+    fs = 50000.0
+    n = int(0.05 * fs)
+    rows = clean_signal[fs][: 4 * n].reshape(4, n)
+    rows = rows * (1.0 + 0.002 * np.random.default_rng(5).standard_normal(rows.shape))
+    names = F.trace_feature_names()
+    assert F.analysis_options(names) == {"residual_mad": True, "fold": True}
+    options = F.analysis_options(model_features())
+    assert options == {"residual_mad": False, "fold": False}
+    full = F.window_features(analyse_windows(rows, fs, 500.0))
+    lean = F.window_features(analyse_windows(rows, fs, 500.0, **options))
+    left_out = [names.index(c) for c in ("noise_mad_rel", *F.FOLDED)]
+    kept = [i for i in range(len(names)) if i not in left_out]
+    assert np.isnan(lean[:, left_out]).all() and np.isfinite(full[:, left_out]).all()
+    assert lean[:, kept].tobytes() == full[:, kept].tobytes()
+
+
 def test_analysis_does_not_depend_on_the_one_before(clean_signal):
     """What the analysis keeps from one call to the next (the Hann windows and DFT tables of a
     length) does not touch a window's numbers: a window of 1998 samples (padded to 8000 in the

@@ -266,13 +266,14 @@ def _sorted_mad(s: np.ndarray, med: float) -> float:
 
 
 @njit(cache=True, error_model="numpy")
-def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
-    """Per row: the values of :data:`STATISTICS` and the fold at f_bp (counts and sums of the
-    detrended samples in :data:`FOLD_BINS` phase bins; ``t``: the samples' times from 0,
-    ``arange(n) / fs``), in two passes over the samples (means,
-    then centred moments). Sums run in blocks of :data:`_SUM_BLOCK` samples added to a total:
-    round-off ~(block + n / block) eps of the summed magnitudes, against numpy's pairwise
-    ~log2(n) eps (both far below the 1e-9 the features are held to)."""
+def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp, fold):
+    """Per row: the values of :data:`STATISTICS` and, if ``fold``, the fold at f_bp (counts and
+    sums of the detrended samples in :data:`FOLD_BINS` phase bins; ``t``: the samples' times
+    from 0, ``arange(n) / fs``), in two passes over the samples (means, then centred moments);
+    the residual's MAD NaN when ``res_sorted`` has no columns. Sums run in blocks of
+    :data:`_SUM_BLOCK` samples added to a total: round-off ~(block + n / block) eps of the
+    summed magnitudes, against numpy's pairwise ~log2(n) eps (both far below the 1e-9 the
+    features are held to)."""
     rows, n = det.shape
     values = np.zeros((rows, 11))
     counts = np.zeros((rows, FOLD_BINS), np.int64)
@@ -280,12 +281,14 @@ def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
     bins = np.empty(n, np.int64)
     for w in range(rows):
         med = sorted_select(det_sorted[w], 0.5)
-        e_med = sorted_select(res_sorted[w], 0.5)
         values[w, 0] = med
         values[w, 1] = _sorted_mad(det_sorted[w], med)
         values[w, 2] = sorted_select(det_sorted[w], 0.75)
         values[w, 3] = sorted_select(det_sorted[w], 0.25)
-        values[w, 5] = _sorted_mad(res_sorted[w], e_med)
+        if res_sorted.shape[1] == n:
+            values[w, 5] = _sorted_mad(res_sorted[w], sorted_select(res_sorted[w], 0.5))
+        else:
+            values[w, 5] = np.nan
         s_e = s_d = s_e2 = s_e4 = s_de = 0.0
         for lo in range(0, n, _SUM_BLOCK):
             b_e = b_d = b_e2 = b_e4 = b_de = 0.0
@@ -334,7 +337,7 @@ def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
             sd = math.sqrt(var)
             values[w, 9] = c_w3 / n / sd**3
             values[w, 10] = c_w4 / n / var**2 - 3.0
-        if n >= FOLD_BINS:
+        if fold and n >= FOLD_BINS:
             for i in range(n):
                 cycles = t[i] * f_bp[w]
                 bins[i] = int(math.floor((cycles - math.floor(cycles)) * FOLD_BINS)) % FOLD_BINS
@@ -353,25 +356,37 @@ def _statistics_pass(det, res, det_sorted, res_sorted, t, f_bp):
     return values, counts, sums
 
 
-def _row_statistics(detrended: np.ndarray, residual: np.ndarray, fs: float, f_bp) -> list[dict]:
+def _row_statistics(
+    detrended: np.ndarray,
+    residual: np.ndarray,
+    fs: float,
+    f_bp,
+    residual_mad: bool = True,
+    fold: bool = True,
+) -> list[dict]:
     """The statistics of whole rows that the level, noise and ripple features read (medians
     and quartiles from one sort per row, moments, the trace folded at f_bp into
     :data:`FOLD_BINS` phase bins), one dict per row: :func:`_statistics_pass` over the rows
-    and their sorted copies (numpy's vectorised sort is several times a compiled one's speed)."""
+    and their sorted copies (numpy's vectorised sort is several times a compiled one's speed).
+    Without ``residual_mad`` the residual is not sorted (its MAD NaN); without ``fold`` it is
+    not folded (``fold_counts`` None: :func:`analyse_windows`)."""
     rows, n = detrended.shape
     f = np.asarray(f_bp, float)
     values, counts, sums = _statistics_pass(
         detrended,
         residual,
         np.sort(detrended, axis=1),
-        np.sort(residual, axis=1),
+        np.sort(residual, axis=1) if residual_mad else np.empty((rows, 0)),
         _sample_times(n, fs)[0],
         f,
+        fold,
     )
     out = [dict(zip(STATISTICS, map(float, values[w]), strict=True)) for w in range(rows)]
     if n >= FOLD_BINS:
         for w in range(rows):
-            if f[w] > 0:
+            if not fold:
+                out[w]["fold_counts"] = out[w]["fold_sums"] = None
+            elif f[w] > 0:
                 out[w]["fold_counts"], out[w]["fold_sums"] = counts[w], sums[w]
     return out
 
@@ -385,11 +400,19 @@ def analyse_windows(
     bearing: Bearing | None = None,
     search_rel: float = SEARCH_REL,
     passes_per_segment: int = PASSES_PER_SEGMENT,
+    residual_mad: bool = True,
+    fold: bool = True,
 ) -> list[TraceAnalysis]:
     """:func:`analyse_trace` of each row of ``windows`` (rows of equal length, each at its own
     ``omega_rad_s``), computed together: one transform over all rows for each spectrum, the
     least-squares products of all rows at once. Equal to the analyses of the rows one by one
-    (the same code, which :func:`analyse_trace` runs on one row)."""
+    (the same code, which :func:`analyse_trace` runs on one row).
+
+    What one feature alone reads is computed only if asked for
+    (:func:`~signatelec.estimation.features.analysis_options` says which for a set of
+    features): ``residual_mad``, the residual's median absolute deviation (a sort of each
+    row's residual, ~15 % of a 0.2 s window's analysis), else NaN; ``fold``, the trace folded
+    at f_bp (~4 %), else its ``statistics["fold_counts"]`` and ``["fold_sums"]`` are None."""
     x = np.asarray(windows, dtype=float)
     if x.ndim != 2 or x.shape[1] == 0:
         raise ValueError("windows: a 2-D array of rows with at least one sample each")
@@ -401,10 +424,14 @@ def analyse_windows(
     omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float), (x.shape[0],))
     if x.shape[0] == 0:
         return []
-    return _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
+    return _analyse(
+        x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment, residual_mad, fold
+    )
 
 
-def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment):
+def _analyse(
+    x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment, residual_mad=True, fold=True
+):
     rows, n = x.shape
     duration = n / fs
     _, tc, tcc, denom = _sample_times(n, fs)
@@ -467,7 +494,7 @@ def _analyse(x, fs, omega, n_harmonics, bearing, search_rel, passes_per_segment)
         noise_density[w, j] = band_mean(
             psd_f[w], residual_psd[w], (k - 0.5) * f_bp[w], (k + 0.5) * f_bp[w]
         )
-    stats = _row_statistics(detrended, residual, fs, f_bp)
+    stats = _row_statistics(detrended, residual, fs, f_bp, residual_mad, fold)
     out = []
     for w in range(rows):
         out.append(

@@ -156,6 +156,13 @@ class _Batch:
         fold = [x.statistics.get("fold_counts") for x in a]
         self.fold_counts = np.zeros((len(a), FOLD_BINS))
         self.fold_sums = np.zeros((len(a), FOLD_BINS))
+        # (a fold of None: not asked for; none: no line to fold at, the fold features 0)
+        self.folded = np.array(
+            [
+                f is not None or "fold_counts" not in x.statistics
+                for x, f in zip(a, fold, strict=True)
+            ]
+        )
         for w, x in enumerate(a):
             if fold[w] is not None:
                 self.fold_counts[w] = fold[w]
@@ -382,6 +389,10 @@ def noise_features(b: _Batch) -> list[np.ndarray]:
     ]
 
 
+#: The features of the trace folded at f_bp (``analyse_windows(..., fold=)``).
+FOLDED = ("fold_p2p_rel", "fold_skew")
+
+
 def ripple_feature_names(n_harmonics: int = N_HARMONICS) -> list[str]:
     return [
         "ripple_rms_rel",
@@ -390,8 +401,7 @@ def ripple_feature_names(n_harmonics: int = N_HARMONICS) -> list[str]:
         "ripple_skew",
         "ripple_kurtosis",
         "ripple_asymmetry",
-        "fold_p2p_rel",
-        "fold_skew",
+        *FOLDED,
         "raw_skew",
         "raw_kurtosis",
     ]
@@ -416,6 +426,7 @@ def ripple_features(b: _Batch) -> list[np.ndarray]:
     for w, cw in enumerate(c):  # one product per trace, as a trace alone has it
         waveforms[w] = np.real(phasors @ cw)
     shapes = _shapes(waveforms, b.fold_counts, b.fold_sums).T
+    shapes[5:, ~b.folded] = np.nan  # (not folded: analyse_windows' fold)
     s = b.scale
     return [
         np.sqrt(0.5 * b.power) / s,
@@ -456,6 +467,13 @@ def trace_feature_names(n_harmonics: int = N_HARMONICS) -> list[str]:
 def trace_features(b: _Batch) -> list[np.ndarray]:
     """Every feature of :data:`FEATURE_GROUPS` from one analysis of the trace (in that order)."""
     return [column for group in FEATURE_GROUPS for column in group.columns(b)]
+
+
+def analysis_options(names) -> dict:
+    """The options of :func:`~signatelec.estimation.analysis.analyse_windows` that compute what
+    only some features read, set for the features ``names`` (the others' values are then NaN)."""
+    names = set(names)
+    return {"residual_mad": "noise_mad_rel" in names, "fold": not names.isdisjoint(FOLDED)}
 
 
 def window_features(analyses) -> np.ndarray:

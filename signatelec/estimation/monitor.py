@@ -1,26 +1,24 @@
 """Monitoring a long trace: the load state window by window, then stretches, changes and alarms.
 
-:func:`monitor_trace` reads a trace file in chunks (:func:`signatelec.measurement.stream.
-read_chunks`: memory bounded whatever the file's length, a CSV file followed as it grows, or
-CSV piped to standard input, followed to its end),
-cuts it into windows of ``window_s`` every ``hop_s`` and estimates each as ``signatelec
-estimate`` does (:mod:`signatelec.estimation.estimate`: the same features, in-domain score and
-model): the windows of a block analysed together
-(:func:`~signatelec.estimation.analysis.analyse_windows`, equal to the one-window analysis),
-the model asked once per batch of windows. The trace's reading and sanity checks are those of
-``estimate``, applied per block of :data:`BLOCK_S`: each block is repaired or refused by
-:func:`~signatelec.measurement.traces.prepare_trace`; the first block's first
-:data:`SCREEN_S`, then one block's every :data:`SCREEN_EVERY_S`, is screened for the level and
-the ball-pass line (:func:`~signatelec.measurement.sanity.check_level`,
-:func:`~signatelec.measurement.ripple.find_ripple`). A first block that is refused refuses the
-trace (one line: wrong column, unit, speed, ...); a later one is kept as windows with a
-``status`` saying why they carry no estimate. The set-up-transient trim of ``estimate`` is not
-applied: a level step is what a monitor looks for.
+:func:`monitor_trace` reads a trace file in chunks
+(:func:`signatelec.measurement.stream.read_chunks`: memory bounded whatever the file's length, a
+CSV file followed as it grows, or CSV piped to standard input, followed to its end), cuts it
+into windows of ``window_s`` every ``hop_s`` and estimates each as ``signatelec estimate`` does
+(:mod:`signatelec.estimation.estimate`: the same features, in-domain score and model): the
+windows of a block analysed together (:func:`~signatelec.estimation.analysis.analyse_windows`,
+equal to the one-window analysis, of what the features read); the model asked once per batch.
+The trace's reading and sanity checks are those of ``estimate``, applied per block of
+:data:`BLOCK_S`: each block is repaired or refused by
+:func:`~signatelec.measurement.traces.prepare_trace`; the first block's first :data:`SCREEN_S`,
+then one block's every :data:`SCREEN_EVERY_S`, is screened for the level and the ball-pass line
+(:func:`~signatelec.measurement.sanity.check_level`, :func:`~signatelec.measurement.ripple.
+find_ripple`). A first block that is refused refuses the trace (one line: wrong column, unit,
+speed, ...); a later one is kept as windows with a ``status`` saying why they carry no
+estimate; ``estimate``'s set-up trim is not applied (a level step is what a monitor seeks).
 
 The speed of each window: ``omega_rad_s`` (constant), the median of a speed column over the
-window, or, with ``track_speed``, the ball-pass frequency found in the previous window
-(the estimate searches +-1 % around the expected one, so the speed may drift by up to ~1 %
-per window).
+window, or, with ``track_speed``, the ball-pass frequency found in the previous window (the
+estimate searches +-1 % around the expected one: the speed may drift by ~1 % per window).
 
 With a condition model, one window every ``condition_every_s`` is assessed for the bearing's
 condition as well (:mod:`signatelec.estimation.health`: the first full window of a block once
@@ -48,6 +46,7 @@ from signatelec.estimation.health import assess_window, confident_faults
 from signatelec.estimation.models import LoadStateModel
 from signatelec.estimation.monitor_answers import (
     SCREEN_S,
+    analysed,
     estimate_batch,
     feature_columns,
     kept_features,
@@ -374,7 +373,8 @@ class _Windows:
             return
         x = np.stack([seg for _, seg, _ in windows])
         try:
-            analyses = analyse_windows(x, fs, [om for _, _, om in windows], bearing=self.s.learnt)
+            omegas = [om for _, _, om in windows]
+            analyses = analyse_windows(x, fs, omegas, bearing=self.s.learnt, **analysed(self.model))
         except ValueError as exc:
             for row, _, _ in windows:
                 row["status"] = f"refused: {exc}"

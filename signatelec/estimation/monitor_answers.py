@@ -13,7 +13,7 @@ import numpy as np
 
 from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
-from signatelec.estimation.features import trace_feature_names
+from signatelec.estimation.features import analysis_options, trace_feature_names
 from signatelec.estimation.health import defect_explains
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.measurement.ripple import find_ripple
@@ -93,6 +93,15 @@ def kept_features(model: LoadStateModel) -> tuple[str, ...]:
     faulty = getattr(model, "faulty", None)
     extra = faulty.features if faulty is not None else ()
     return tuple(dict.fromkeys([*KEPT_FEATURES, *model.features, *extra]))
+
+
+def analysed(model: LoadStateModel) -> dict:
+    """The options of :func:`~signatelec.estimation.analysis.analyse_windows` for what the
+    monitor reads of a window: :func:`kept_features`, the stretch model's and the condition
+    model's features (what none of them reads is not computed)."""
+    models = (getattr(model, "stretch", None), getattr(model, "condition", None))
+    names = [*kept_features(model), *(n for m in models if m is not None for n in m.features)]
+    return analysis_options(names)
 
 
 def estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateModel) -> None:
