@@ -290,10 +290,14 @@ def test_a_model_file_of_one_condition_assesses_none(model_file, tmp_path, capsy
     model = load_model(model_file)
     table = _synthetic_table(6, seed=5)
     healthy = table[table["condition"] == "healthy"]
+    with pytest.raises(ValueError, match=r"one condition \(healthy\); a condition model"):
+        train_condition(healthy)
+    # such a file's model, as train_condition made it then
+    features = model.condition.features
+    estimator = ConditionEstimator(max_iter=10, n_splits=2)
     with threadpool_limits(1):
-        model.condition = train_condition(
-            healthy, estimator=ConditionEstimator(max_iter=10, n_splits=2)
-        )
+        estimator.fit(healthy[features], healthy[["condition"]].astype(object))
+    model.condition = ConditionModel(estimator, features, {"classes": {"healthy": 6}}, None)
     assert list(model.condition.estimator.classes_) == ["healthy"]
     path = tmp_path / "one_condition.model"
     save_model(model, path)

@@ -147,6 +147,19 @@ def test_standard_input_header_is_checked_before_the_model(monkeypatch, tmp_path
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and "trace on standard input" in line and "resistance_ohm" in line, line
     assert not (tmp_path / "out").exists()
+    # a stream whose first bytes are late (a logger waiting for its trigger) does not hold up
+    # what else is checked before it: a model file that cannot be used is named at once
+    junk = tmp_path / "junk.model"
+    junk.write_bytes(b"not a model")
+    late = _Pipe([b"", text], pause_s=5.0)
+    monkeypatch.setattr("sys.stdin", late)
+    clock = time.monotonic()
+    code = run_main(
+        ["monitor", "-", "--out", str(tmp_path / "o2"), "--omega", "500", "--model", str(junk)]
+    )
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "junk.model" in line and time.monotonic() - clock < 4.0, line
+    late.thread.join()
     rows = "".join(f"{i / FS!r};{3e-3 + 1e-6 * i!r}\n" for i in range(500))
     monkeypatch.setattr("sys.stdin", _Pipe([f"time_s;resistance_ohm\n{rows}".encode()], 0.0))
     check_trace_file("-")

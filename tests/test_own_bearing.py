@@ -190,3 +190,24 @@ def test_the_commands_read_the_bearing_the_model_learnt(model_file, bearing, tmp
     assert windows["radial_load_n"].median() == pytest.approx(f_r, rel=0.01)
     kinematic = bearing.ball_pass_frequency_hz(omega)
     assert windows["ball_pass_found_hz"].median() == pytest.approx(kinematic, rel=2e-3)
+
+
+@pytest.mark.parametrize(
+    ("stored", "expected"),
+    [
+        ("SKF 6208", "attrs.bearing = 'SKF 6208': must be a table of the bearing's fields"),
+        ({"n_balls": 9, "teeth": 3}, "attrs.bearing.teeth = 3: unknown key"),
+    ],
+)
+def test_a_feature_table_s_bearing_that_is_not_one_is_refused(tmp_path, capsys, stored, expected):
+    """A Parquet feature table whose attrs name a bearing that is not one (edited by hand,
+    written by another tool): one line naming the attribute, exit 2, no model written."""
+    table = pd.DataFrame({"level_mean_ohm": np.linspace(1e-3, 2e-3, 12)})
+    table.attrs["bearing"] = stored
+    path = tmp_path / "features.parquet"
+    table.to_parquet(path)
+    out = tmp_path / "m.model"
+    assert run_main(["train", str(path), "--out", str(out)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert expected in line, line
+    assert not out.exists()

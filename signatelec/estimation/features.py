@@ -156,7 +156,8 @@ class _Batch:
         fold = [x.statistics.get("fold_counts") for x in a]
         self.fold_counts = np.zeros((len(a), FOLD_BINS))
         self.fold_sums = np.zeros((len(a), FOLD_BINS))
-        # (a fold of None: not asked for; none: no line to fold at, the fold features 0)
+        # (a fold of None: not asked for, the fold features NaN; none: no line to fold at or
+        # too few samples, the fold features 0)
         self.folded = np.array(
             [
                 f is not None or "fold_counts" not in x.statistics

@@ -192,6 +192,11 @@ def train_condition(
         )
     y = table[[c for c in (CONDITION_TARGET, SEVERITY_TARGET) if c in table.columns]].copy()
     y[CONDITION_TARGET] = y[CONDITION_TARGET].astype(str).to_numpy(dtype=object)
+    if y[CONDITION_TARGET].nunique() < 2:
+        raise ValueError(
+            f"feature table holds one condition ({', '.join(y[CONDITION_TARGET].unique())}); "
+            "a condition model learns two or more (of one, it would call every trace that one)"
+        )
     group_col = "run_id" if "run_id" in table.columns else "trace_id"
     groups = table[group_col].to_numpy() if group_col in table.columns else None
     est = estimator or ConditionEstimator()
@@ -516,6 +521,8 @@ def table_bearing(table: pd.DataFrame) -> Bearing | None:
     :func:`features_from_dataset` names it in ``table.attrs`` (kept by a Parquet file of the
     table); None: the seed's, or a table that does not say (pipelines/load_state.py's)."""
     stored = table.attrs.get("bearing")
-    if stored is None:
-        return None
-    return stored if isinstance(stored, Bearing) else Bearing.from_dict(stored)
+    if stored is None or isinstance(stored, Bearing):
+        return stored
+    if not isinstance(stored, dict):
+        raise ValueError(f"attrs.bearing = {stored!r}: must be a table of the bearing's fields")
+    return Bearing.from_dict(stored, section="attrs.bearing")

@@ -67,6 +67,8 @@ CSV_SUFFIXES = (".csv", ".txt", ".tsv")
 _LINE_BYTES = 1 << 20
 #: The path that reads CSV from standard input.
 STANDARD_INPUT = "-"
+#: Longest wait for standard input's first bytes, whose header is checked before anything long.
+_PEEK_WAIT_S = 0.2
 #: Most wall time spent gathering one block of a stream before it is parsed: a slow stream's
 #: lines are analysed within about this of their arrival.
 STREAM_WAIT_S = 1.0
@@ -340,12 +342,21 @@ def _checked_header(header: bytes, after: bytes, names, where) -> str:
 
 
 def _peeked_header(names, where) -> None:
-    """Check the header line of standard input among the bytes that have arrived (waiting
-    for the first), without taking them from the stream; nothing if it is not all there."""
-    peek = getattr(getattr(sys.stdin, "buffer", None), "peek", None)
-    if peek is None:
+    """Check the header line of standard input among the bytes that have arrived, without
+    taking them from the stream; nothing if none has within :data:`_PEEK_WAIT_S` (a logger
+    that waits for a trigger, a terminal: what else can be checked is not held up), or the
+    header line is not all there."""
+    import select
+
+    stream = getattr(sys.stdin, "buffer", None)
+    if getattr(stream, "peek", None) is None or stream.isatty():
         return
-    lines = peek(_LINE_BYTES).split(b"\n")
+    try:
+        if not select.select([stream], [], [], _PEEK_WAIT_S)[0]:
+            return
+    except (OSError, ValueError):  # (a stream that cannot be waited on)
+        return
+    lines = stream.peek(_LINE_BYTES).split(b"\n")
     for i, line in enumerate(lines[:-1]):  # (complete lines only)
         if line.strip() and not line.startswith(b"#"):
             _checked_header(line + b"\n", b"\n".join(lines[i + 1 :])[:4096], names, where)
