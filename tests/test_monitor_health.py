@@ -120,16 +120,17 @@ def _monitor(path, model_file, every_s):
 
 @pytest.mark.parametrize("kind", ["outer", "inner"])
 def test_a_spall_that_appears_is_a_condition_change(model_file, tile, tmp_path, kind):
-    """60 s healthy, then 60 s with a spall: one window in every 2 s is assessed (the others'
-    condition is empty), the change is found within the assessments' cadence of its onset,
-    alarmed as a condition change with its probability, and nothing else changes (the load is
-    the same on both sides)."""
+    """60 s healthy, then 60 s with a spall: one window in every 2 s is assessed, and the
+    record's last (the others' condition is empty), the change is found within the
+    assessments' cadence of its onset, alarmed as a condition change with its probability, and
+    nothing else changes (the load is the same on both sides)."""
     path = _record(tile, [("healthy", 60.0), (kind, 60.0)], tmp_path / "spall.parquet")
     windows, (stretches, changes, alarms) = _monitor(path, model_file, 2.0)
     assessed = windows["condition_probability_healthy"].notna()
-    # one window per 2 s block: 60 of the 600
-    assert assessed.sum() == pytest.approx(60, abs=1)
-    assert np.allclose(np.diff(windows.loc[assessed, "start_s"]), 2.0)
+    # one window per 2 s block (60 of the 600), then the record's last, 1.8 s after
+    starts = windows.loc[assessed, "start_s"].to_numpy()
+    assert starts.size == 61 and starts[-1] == windows["start_s"].max() == pytest.approx(119.8)
+    assert np.allclose(np.diff(starts[:-1]), 2.0)
     assert [s["condition"] for s in stretches] == ["healthy", kind]
     assert stretches[1]["condition_probability"] > 0.9
     assert len(changes) == 1 and changes[0]["time_s"] == pytest.approx(60.0, abs=2.0)
@@ -753,7 +754,9 @@ def test_another_bearing_is_monitored_for_its_condition_alone(
     windows = monitor_trace(path, model, settings).frame()
     stretches, changes, alarms = stretches_and_changes(windows, settings.hop)
     assessed = windows["condition"].notna()
-    assert assessed.sum() == 40 and sum(analysed) == 40
+    # every 2 s and the record's last window: 41 assessed, and only those analysed
+    assert assessed.sum() == 41 and sum(analysed) == 41
+    assert windows.loc[assessed, "start_s"].max() == pytest.approx(79.8)
     assert windows["status"].str.startswith("no load state").all()
     assert "radial_load_n" not in windows and windows["resistance_max_ohm"].notna().all()
     assert [s["condition"] for s in stretches] == ["healthy", "outer"]

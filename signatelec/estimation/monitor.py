@@ -22,7 +22,8 @@ estimate searches +-1 % around the expected one: the speed may drift by ~1 % per
 
 With a condition model, one window every ``condition_every_s`` is assessed for the bearing's
 condition as well (:mod:`signatelec.estimation.health`: the first full window of a block once
-that much trace has passed; the others' condition columns stay empty). Another bearing than
+that much trace has passed, and the record's last window if more than a hop after the last
+assessed; the others' condition columns stay empty). Another bearing than
 the model learnt (``settings.bearing``) has no load state: only those windows are analysed.
 
 The per-window table then goes to :mod:`signatelec.estimation.evidence` (change points,
@@ -53,6 +54,9 @@ from signatelec.estimation.monitor_answers import (
     screen_block,
 )
 from signatelec.estimation.monitor_settings import (
+    MAX_GAP_WINDOWS,
+    TRACK_MIN_SNR,
+    TYPICAL_SLIP,
     MonitorSettings,
     omega_of,
     speed_given,
@@ -84,17 +88,9 @@ MEASURE_WINDOWS = 100
 #: gone wrong is refused within this; screening every block cost ~1.4 ms per 0.2 s window at
 #: 50 kHz, more than the window's features.
 SCREEN_EVERY_S = 10.0
-#: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
-#: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
-TRACK_MIN_SNR = 25.0
-#: Most windows a gap in the record takes: a longer one (a clock jump) ends the reading there (a
-#: day at a hop of 0.2 s is 432000 windows, ~0.5 GB of the run's memory).
-MAX_GAP_WINDOWS = 1_000_000
 #: Relative change of a block's sample rate from the first block's that the notes report (a
 #: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
 RATE_CHANGE = 0.05
-#: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
-TYPICAL_SLIP = -0.001
 
 
 @dataclass
@@ -266,11 +262,12 @@ class _Windows:
             if n_per < 1:
                 return False
             end_needed = start + (n_per - 1) * hop + win
+        closing = final and (last + 1.0 / self.block_fs - end_needed) / hop < 1.0 - 1e-9
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
         hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
         taken = self._in_gaps(lo, hi, start, n_per)
         if not taken:
-            self._estimate(lo, hi, start, n_per, final)
+            self._estimate(lo, hi, start, n_per, final, closing)
         elif taken[0][0] > 0:  # the windows before the gap, as a block of their own
             n_per = taken[0][0]
             end = start + (n_per - 1) * hop + win
@@ -427,7 +424,7 @@ class _Windows:
             self.table.notes.append(f"at t = {time_text(row['start_s'])} s: {note}")
             self.condition_noted = True
 
-    def _estimate(self, lo, hi, start, n_per, final=False) -> None:
+    def _estimate(self, lo, hi, start, n_per, final=False, closing=False) -> None:
         clock = time.process_time()
         self.blocks += 1
         speed = None if self.v is None else self.v[lo:hi]
@@ -514,8 +511,11 @@ class _Windows:
                 if short := window_too_short(self.s.window_s, omega, self.s.bearing):
                     row["status"] = f"refused: {short}"
                     continue
-            # the window nearest the due time, a tie to the later (1.5 hops: every second one)
-            due = assess and t_start >= self.next_condition_s - (0.5 - 1e-6) * self.s.hop
+            # the window nearest the due time, a tie to the later (1.5 hops: every second one),
+            # and the record's last, if more than a hop after the last assessed (``closing``)
+            due = t_start >= self.next_condition_s - (0.5 - 1e-6) * self.s.hop
+            after = t_start - (self.next_condition_s - every) if assess else 0.0
+            due = assess and (due or closing and k == n_per - 1 and after > self.s.hop * 1.000001)
             if due and seg.size == win_n:
                 measured = self.tracked if self.s.track_speed and speed is None else omega
                 row["_condition"] = (seg.copy(), trace.sample_rate_hz, measured)

@@ -25,6 +25,15 @@ WINDOW_S = 0.2
 #: 100 kHz trace (8 s, 0.2 s windows); a hop of one sample at 20 kHz was killed for lack of memory.
 MAX_OVERLAP = 50
 
+#: Smallest harmonic SNR (fitted harmonic power over its noise variance) of a window whose
+#: ball-pass frequency sets the tracked speed: a 5-sigma ripple.
+TRACK_MIN_SNR = 25.0
+#: Most windows a gap in the record takes: a longer one (a clock jump) ends the reading there (a
+#: day at a hop of 0.2 s is 432000 windows, ~0.5 GB of the run's memory).
+MAX_GAP_WINDOWS = 1_000_000
+#: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
+TYPICAL_SLIP = -0.001
+
 
 @dataclass
 class MonitorSettings:
