@@ -191,18 +191,18 @@ class _Windows:
         would make the blocks' bisections meaningless."""
         t, r, v = chunk.time_s, chunk.resistance_ohm, chunk.speed_rad_s
         finite = np.isfinite(t)
-        at = t
+        at, rows = t, None  # (rows: those with a time, None when all have)
         if not finite.all():
             last = np.maximum.accumulate(np.where(finite, np.arange(t.size), -1))
             at = np.where(last >= 0, t[np.maximum(last, 0)], self.last_time)
-        rows = np.flatnonzero(finite)
-        if rows.size and self.first_time is None:
-            self.first_time = float(t[rows[0]])
-        steps = np.diff(t[rows], prepend=self.last_time)
-        back = np.flatnonzero(~(steps > 0.0))
+            rows = np.flatnonzero(finite)
+        timed = t if rows is None else t[rows]
+        if timed.size and self.first_time is None:
+            self.first_time = float(timed[0])
+        back = np.flatnonzero(~(np.diff(timed, prepend=self.last_time) > 0.0))
         if back.size:
-            i = int(rows[back[0]])
-            before = self.last_time if back[0] == 0 else float(t[rows[back[0] - 1]])
+            i = int(back[0] if rows is None else rows[back[0]])
+            before = self.last_time if back[0] == 0 else float(timed[back[0] - 1])
             what = (
                 f"time does not increase at row {chunk.first_row + i} (t = {before:.9g} s, "
                 f"then {t[i]:.9g} s)"
