@@ -265,9 +265,10 @@ class _Windows:
         closing = final and (last + 1.0 / self.block_fs - end_needed) / hop < 1.0 - 1e-9
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
         hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
-        taken = self._in_gaps(lo, hi, start, n_per)
+        omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
+        taken = self._in_gaps(lo, hi, start, n_per, omega)
         if not taken:
-            self._estimate(lo, hi, start, n_per, final, closing)
+            self._estimate(lo, hi, start, n_per, final, closing, omega)
         elif taken[0][0] > 0:  # the windows before the gap, as a block of their own
             n_per = taken[0][0]
             end = start + (n_per - 1) * hop + win
@@ -285,11 +286,10 @@ class _Windows:
             self.v = self.v[keep:]
         return True
 
-    def _in_gaps(self, lo: int, hi: int, start: float, n_per: int) -> list[tuple]:
+    def _in_gaps(self, lo: int, hi: int, start: float, n_per: int, omega: float) -> list[tuple]:
         """:func:`~signatelec.estimation.monitor_settings.windows_in_gaps` of the block's
-        samples and the one before them."""
+        samples and the one before them (``omega``: the block's speed)."""
         times = np.concatenate([[self.before], self.at[lo : hi + 1]])
-        omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
         if times.size < 2 or not (math.isfinite(omega) and omega > 0):
             return []
         limit = MAX_GAP_BALL_PASSES / expected_ball_pass_hz(omega, self.s.bearing)
@@ -412,8 +412,7 @@ class _Windows:
         """The bearing's condition of a window due for one (:mod:`~signatelec.estimation.
         health`), into its row; why a window was not assessed goes to the notes once."""
         segment, fs, omega = row.pop("_condition")
-        names = trace_feature_names(analysis.n_harmonics)
-        named = dict(zip(names, features.tolist(), strict=True))
+        named = dict(zip(trace_feature_names(analysis.n_harmonics), features.tolist(), strict=True))
         # the analysis found the model's bearing's ball-pass line: another's is found again
         mine = analysis if self.s.load_state else None
         keys, note = assess_window(
@@ -424,11 +423,12 @@ class _Windows:
             self.table.notes.append(f"at t = {time_text(row['start_s'])} s: {note}")
             self.condition_noted = True
 
-    def _estimate(self, lo, hi, start, n_per, final=False, closing=False) -> None:
+    def _estimate(self, lo, hi, start, n_per, final=False, closing=False, omega=None) -> None:
+        """Estimate ``n_per`` windows from ``start`` (samples lo:hi; ``omega``: their speed)."""
         clock = time.process_time()
         self.blocks += 1
         speed = None if self.v is None else self.v[lo:hi]
-        omega_block = omega_of(self.s, speed, self.tracked)
+        omega_block = omega_of(self.s, speed, self.tracked) if omega is None else omega
         where = f"{self.source} at t = {time_text(start)} s"
         rows, status, ripple = [], self.s.window_status, "unchecked"
         try:
