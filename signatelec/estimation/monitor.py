@@ -21,10 +21,10 @@ window, or, with ``track_speed``, the ball-pass frequency found in the previous 
 estimate searches +-1 % around the expected one: the speed may drift by ~1 % per window).
 
 With a condition model, one window every ``condition_every_s`` is assessed for the bearing's
-condition as well (:mod:`signatelec.estimation.health`: the first full window of a block once
-that much trace has passed, and the record's last window if more than a hop after the last
-assessed; the others' condition columns stay empty). Another bearing than
-the model learnt (``settings.bearing``) has no load state: only those windows are analysed.
+condition as well (:mod:`signatelec.estimation.health`: the window nearest each due time, and
+the record's last usable one if more than a hop after the last assessed; the others' condition
+columns stay empty). Another bearing than the model learnt (``settings.bearing``) has no load
+state: only those windows are analysed.
 
 The per-window table then goes to :mod:`signatelec.estimation.evidence` (change points,
 stretches, alarms); :mod:`signatelec.estimation.monitor_report` writes the output directory.
@@ -55,9 +55,13 @@ from signatelec.estimation.monitor_answers import (
 )
 from signatelec.estimation.monitor_settings import (
     MAX_GAP_WINDOWS,
+    RATE_CHANGE,
     TRACK_MIN_SNR,
     TYPICAL_SLIP,
     MonitorSettings,
+    check_rate,
+    first_gaps,
+    gap_rows,
     omega_of,
     speed_given,
     speed_of,
@@ -88,9 +92,6 @@ MEASURE_WINDOWS = 100
 #: gone wrong is refused within this; screening every block cost ~1.4 ms per 0.2 s window at
 #: 50 kHz, more than the window's features.
 SCREEN_EVERY_S = 10.0
-#: Relative change of a block's sample rate from the first block's that the notes report (a
-#: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
-RATE_CHANGE = 0.05
 
 
 @dataclass
@@ -166,17 +167,7 @@ class _Windows:
             self.fs = self.block_fs = 1.0 / step
             self.table.sample_rate_hz = self.fs
             self.t0 = self.first_time  # (the first time read: _in_order)
-            if self.s.window_s * self.fs < 16:
-                raise TraceError(
-                    f"--window {self.s.window_s:g}: {self.s.window_s * self.fs:.1f} samples at "
-                    f"{self.fs:.6g} Hz; a window needs at least 16 (is --time-column "
-                    f"{self.s.time_column!r} in seconds?)"
-                )
-            if self.s.hop * self.fs < 1.0:
-                raise TraceError(
-                    f"--hop {self.s.hop:g}: {self.s.hop * self.fs:.2g} samples at {self.fs:.6g} "
-                    "Hz; a hop needs at least one sample"
-                )
+            check_rate(self.s, self.fs)
         if self.fs is not None and math.isfinite(self.last_time):
             self.table.duration_s = self.last_time - self.t0 + 1.0 / self.fs
         while self.fs is not None and self._block(final=False):
@@ -262,7 +253,11 @@ class _Windows:
             if n_per < 1:
                 return False
             end_needed = start + (n_per - 1) * hop + win
-        closing = final and (last + 1.0 / self.block_fs - end_needed) / hop < 1.0 - 1e-9
+        # the record's last block, if no further window fits yet: it waits for more samples, or
+        # for the end of the record, when its last usable window is assessed (``closing``)
+        closing = (last + 1.0 / self.block_fs - end_needed) / hop < 1.0 - 1e-9
+        if closing and not final:
+            return False
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
         hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
         omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
@@ -270,9 +265,11 @@ class _Windows:
         if not taken:
             self._estimate(lo, hi, start, n_per, final, closing, omega)
         elif taken[0][0] > 0:  # the windows before the gap, as a block of their own
-            n_per = taken[0][0]
+            # (they close the record if the gaps take the rest of the block)
+            n_per, closing = taken[0][0], closing and first_gaps(taken)[-1][1] >= n_per
             end = start + (n_per - 1) * hop + win
-            self._estimate(lo, int(np.searchsorted(self.at, end - 0.5 / self.fs)), start, n_per)
+            hi = int(np.searchsorted(self.at, end - 0.5 / self.fs))
+            self._estimate(lo, hi, start, n_per, closing=closing)
         else:  # the windows the gaps take (none beyond the record's last sample)
             n_per = self._no_data(start, taken, n_per if final else None)
             if not n_per:
@@ -299,11 +296,7 @@ class _Windows:
         """File the windows from ``start`` that the first gaps of ``taken`` (:meth:`_in_gaps`)
         take, each with its gap (at most ``most``), as status "no data"; how many. A gap of more
         than :data:`MAX_GAP_WINDOWS` ends the reading there, with a note, and files none."""
-        run = []
-        for first, end, gap in taken:
-            if run and first > run[-1][1]:
-                break
-            run.append((max(first, run[-1][1] if run else 0), end, gap))
+        run = first_gaps(taken)
         n = run[-1][1] if most is None else min(run[-1][1], most)
         if n > MAX_GAP_WINDOWS:
             a, b = run[-1][2]
@@ -319,24 +312,16 @@ class _Windows:
             self.table.duration_s = a - self.t0 + 1.0 / self.fs
             return 0
         self.flush()  # the rows in time order, the gap's as one frame (a day: 432000 rows)
-        hop, win = self.s.hop, self.s.window_s
         for first, end, (a, b) in [(f, min(e, n), g) for f, e, g in run if min(e, n) > f]:
             if not self.table.gaps or self.table.gaps[-1][1] < b:
                 self.table.gaps.append((a, b))
-            starts = start + np.arange(first, end) * hop
-            status = f"no data: no sample from t = {time_text(a)} to {time_text(b)} s"
-            self.table.parts.append(
-                pd.DataFrame(
-                    {
-                        "start_s": starts,
-                        "end_s": starts + win,
-                        "time_s": starts + 0.5 * win,
-                        "status": status,
-                        "ripple": self.ripple,
-                    }
-                )
-            )
+            starts = start + np.arange(first, end) * self.s.hop
+            self.table.parts.append(gap_rows(starts, self.s.window_s, (a, b), self.ripple))
         return n
+
+    def _late(self, t_start: float) -> bool:
+        """Whether a window from ``t_start`` is more than a hop after the last assessed."""
+        return t_start - (self.next_condition_s - self.s.condition_every_s) > 1.000001 * self.s.hop
 
     def _unconfirmed(self, start: float) -> None:
         """A screen at ``start`` found the ball-pass line away from the speed's, or none: the
@@ -486,6 +471,9 @@ class _Windows:
         every = self.s.condition_every_s
         assess = getattr(self.model, "condition", None) is not None and every is not None
         todo = []  # (row, segment, omega) of the windows to measure
+        last_full = -1 if trace is None else (trace.resistance_ohm.size - win_n) // hop_n
+        closing_k = min(n_per - 1, last_full) if closing else -1  # the record's last full window
+        candidate = None  # the last window that can be assessed
         for k in range(n_per):
             t_start = start + k * self.s.hop
             row = {
@@ -511,11 +499,11 @@ class _Windows:
                 if short := window_too_short(self.s.window_s, omega, self.s.bearing):
                     row["status"] = f"refused: {short}"
                     continue
+            candidate = (row, seg, omega) if seg.size == win_n else candidate
             # the window nearest the due time, a tie to the later (1.5 hops: every second one),
             # and the record's last, if more than a hop after the last assessed (``closing``)
             due = t_start >= self.next_condition_s - (0.5 - 1e-6) * self.s.hop
-            after = t_start - (self.next_condition_s - every) if assess else 0.0
-            due = assess and (due or closing and k == n_per - 1 and after > self.s.hop * 1.000001)
+            due = assess and (due or k == closing_k and self._late(t_start))
             if due and seg.size == win_n:
                 measured = self.tracked if self.s.track_speed and speed is None else omega
                 row["_condition"] = (seg.copy(), trace.sample_rate_hz, measured)
@@ -529,6 +517,12 @@ class _Windows:
                 self._measure([(row, seg, self.tracked)], trace.sample_rate_hz)
             else:
                 todo.append((row, seg, omega))
+        if closing and assess and candidate and "_condition" not in candidate[0]:
+            row, seg, omega = candidate  # the last window refused: the last one not refused
+            if self._late(row["start_s"]):
+                row["_condition"] = (seg.copy(), trace.sample_rate_hz, omega)
+                self.next_condition_s = row["start_s"] + every
+                todo += [] if self.s.load_state else [candidate]
         # windows of full length in one batch, any others (cut by a repair) one by one
         full = [w for w in todo if w[1].size == win_n]
         self._measure(full, trace.sample_rate_hz if trace else 0.0)

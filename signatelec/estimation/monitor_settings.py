@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+import pandas as pd
 
 from signatelec.config.bearing import Bearing, same_bearing
 from signatelec.estimation.diagnose import least_cage_revolutions
@@ -33,6 +34,9 @@ TRACK_MIN_SNR = 25.0
 MAX_GAP_WINDOWS = 1_000_000
 #: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
 TYPICAL_SLIP = -0.001
+#: Relative change of a block's sample rate from the first block's that the notes report (a
+#: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
+RATE_CHANGE = 0.05
 
 
 @dataclass
@@ -256,3 +260,44 @@ def windows_in_gaps(times, limit_s: float, start_s: float, settings, fs: float, 
         if end > first:
             taken.append((first, end, (a, b)))
     return taken
+
+
+def first_gaps(taken: list[tuple]) -> list[tuple]:
+    """The first gaps of ``taken`` (:func:`windows_in_gaps`) whose windows run on without a
+    window between them, each from where the one before ends: (first, end, gap)."""
+    run = []
+    for first, end, gap in taken:
+        if run and first > run[-1][1]:
+            break
+        run.append((max(first, run[-1][1] if run else 0), end, gap))
+    return run
+
+
+def gap_rows(starts: np.ndarray, window_s: float, gap: tuple, ripple: str) -> pd.DataFrame:
+    """The rows of the windows from ``starts`` that a gap (last time before, first time after)
+    takes: status "no data", naming the gap."""
+    a, b = gap
+    return pd.DataFrame(
+        {
+            "start_s": starts,
+            "end_s": starts + window_s,
+            "time_s": starts + 0.5 * window_s,
+            "status": f"no data: no sample from t = {time_text(a)} to {time_text(b)} s",
+            "ripple": ripple,
+        }
+    )
+
+
+def check_rate(settings: MonitorSettings, fs: float) -> None:
+    """TraceError when the window or the hop spans too few samples at the rate ``fs``."""
+    if settings.window_s * fs < 16:
+        raise TraceError(
+            f"--window {settings.window_s:g}: {settings.window_s * fs:.1f} samples at "
+            f"{fs:.6g} Hz; a window needs at least 16 (is --time-column "
+            f"{settings.time_column!r} in seconds?)"
+        )
+    if settings.hop * fs < 1.0:
+        raise TraceError(
+            f"--hop {settings.hop:g}: {settings.hop * fs:.2g} samples at {fs:.6g} "
+            "Hz; a hop needs at least one sample"
+        )
