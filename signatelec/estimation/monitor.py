@@ -65,7 +65,7 @@ from signatelec.estimation.monitor_settings import (
     omega_of,
     speed_given,
     speed_of,
-    window_too_short,
+    speed_refusal,
     windows_in_gaps,
 )
 from signatelec.interrupts import interruption
@@ -319,10 +319,6 @@ class _Windows:
             self.table.parts.append(gap_rows(starts, self.s.window_s, (a, b), self.ripple))
         return n
 
-    def _late(self, t_start: float) -> bool:
-        """Whether a window from ``t_start`` is more than a hop after the last assessed."""
-        return t_start - (self.next_condition_s - self.s.condition_every_s) > 1.000001 * self.s.hop
-
     def _unconfirmed(self, start: float) -> None:
         """A screen at ``start`` found the ball-pass line away from the speed's, or none: the
         windows since the last screen that found it take the ripple status "unconfirmed"
@@ -471,9 +467,14 @@ class _Windows:
         every = self.s.condition_every_s
         assess = getattr(self.model, "condition", None) is not None and every is not None
         todo = []  # (row, segment, omega) of the windows to measure
+        # each window's speed, why it is refused for it if it is, and the record's last window
+        # that can be assessed (of full length, not refused: ``closing``)
+        omegas, refused = [omega_block] * n_per, [None] * n_per
+        if speed is not None and trace is not None:
+            omegas = [speed_of(speed[k * hop_n : k * hop_n + win_n]) for k in range(n_per)]
+            refused = [speed_refusal(w, self.s) for w in omegas]
         last_full = -1 if trace is None else (trace.resistance_ohm.size - win_n) // hop_n
-        closing_k = min(n_per - 1, last_full) if closing else -1  # the record's last full window
-        candidate = None  # the last window that can be assessed
+        closing_k = max([k for k in range(min(n_per, last_full + 1)) if not refused[k]], default=-1)
         for k in range(n_per):
             t_start = start + k * self.s.hop
             row = {
@@ -490,20 +491,15 @@ class _Windows:
             if seg.size < 0.9 * win_n:
                 row["status"] = "refused: window cut short by a repair"
                 continue
-            omega = omega_block
-            if speed is not None:
-                omega = speed_of(speed[k * hop_n : k * hop_n + win_n])
-                if not (math.isfinite(omega) and omega > 0):
-                    row["status"] = f"refused: speed {omega:g} rad/s; must be finite and > 0"
-                    continue
-                if short := window_too_short(self.s.window_s, omega, self.s.bearing):
-                    row["status"] = f"refused: {short}"
-                    continue
-            candidate = (row, seg, omega) if seg.size == win_n else candidate
+            omega = omegas[k]
+            if refused[k]:
+                row["status"] = f"refused: {refused[k]}"
+                continue
             # the window nearest the due time, a tie to the later (1.5 hops: every second one),
-            # and the record's last, if more than a hop after the last assessed (``closing``)
-            due = t_start >= self.next_condition_s - (0.5 - 1e-6) * self.s.hop
-            due = assess and (due or k == closing_k and self._late(t_start))
+            # and the record's last usable, if more than a hop after the last assessed
+            due = assess and t_start >= self.next_condition_s - (0.5 - 1e-6) * self.s.hop
+            if assess and closing and k == closing_k:
+                due = due or t_start - (self.next_condition_s - every) > 1.000001 * self.s.hop
             if due and seg.size == win_n:
                 measured = self.tracked if self.s.track_speed and speed is None else omega
                 row["_condition"] = (seg.copy(), trace.sample_rate_hz, measured)
@@ -517,12 +513,6 @@ class _Windows:
                 self._measure([(row, seg, self.tracked)], trace.sample_rate_hz)
             else:
                 todo.append((row, seg, omega))
-        if closing and assess and candidate and "_condition" not in candidate[0]:
-            row, seg, omega = candidate  # the last window refused: the last one not refused
-            if self._late(row["start_s"]):
-                row["_condition"] = (seg.copy(), trace.sample_rate_hz, omega)
-                self.next_condition_s = row["start_s"] + every
-                todo += [] if self.s.load_state else [candidate]
         # windows of full length in one batch, any others (cut by a repair) one by one
         full = [w for w in todo if w[1].size == win_n]
         self._measure(full, trace.sample_rate_hz if trace else 0.0)

@@ -211,6 +211,15 @@ def window_too_short(window_s: float, omega: float, bearing: Bearing | None = No
     )
 
 
+def speed_refusal(omega: float, settings: MonitorSettings) -> str | None:
+    """Why a window at the speed ``omega`` (a speed column's, :func:`speed_of`) carries no
+    estimate, or None: a speed that is not finite and > 0, or too slow for the window
+    (:func:`window_too_short`)."""
+    if not (math.isfinite(omega) and omega > 0):
+        return f"speed {omega:g} rad/s; must be finite and > 0"
+    return window_too_short(settings.window_s, omega, settings.bearing)
+
+
 def speed_of(speed: np.ndarray) -> float:
     """The median of the speed samples that are not missing (a glitch of a few samples does
     not move it, where it moved the mean: 5 samples at 1e6 rad/s in a window of 10000 read
