@@ -301,14 +301,20 @@ def test_a_model_file_of_one_condition_assesses_none(model_file, tmp_path, capsy
     assert list(model.condition.estimator.classes_) == ["healthy"]
     path = tmp_path / "one_condition.model"
     save_model(model, path)
-    assert load_model(path).condition is None
+    said = []
+    assert load_model(path, log=said.append).condition is None
+    assert said == [
+        f"warning: model file {str(path)!r}: its condition model knows one condition (healthy); "
+        "the bearing's condition is not assessed"
+    ]
     r, ex = _example_with("inner", np.random.default_rng(21), 0.05)
     src = tmp_path / "trace.csv"
     pd.DataFrame({"time_s": ex["time_s"], "resistance_ohm": r}).to_csv(src, index=False)
     out = tmp_path / "estimate.json"
     _run(["estimate", str(src), "--omega", "500", "--model", str(path), "--out", str(out)])
-    text = capsys.readouterr().out
-    assert "condition = healthy" not in text
+    captured = capsys.readouterr()
+    assert "condition = healthy" not in captured.out
+    assert "its condition model knows one condition (healthy)" in captured.err
     if out.exists():  # (or refused: the spall's line, unexplained, is a wrong --omega)
         assert json.loads(out.read_text()).get("condition") is None
 

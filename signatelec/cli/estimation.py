@@ -67,6 +67,11 @@ def _bearing(designation: str | None):
         raise InputError(f"--bearing {designation!r}: {str(exc).split(': ', 1)[-1]}") from None
 
 
+def _note(message: str) -> None:
+    """A line of the model's loading (a build, a warning) on stderr."""
+    click.echo(f"signatelec: {message}", err=True)
+
+
 def _check_prior(model, healthy_prior) -> None:
     """InputError unless ``model``'s condition model can report under ``healthy_prior``."""
     if healthy_prior is None:
@@ -128,7 +133,7 @@ def estimate(
     if problem:
         raise InputError(f"trace {trace_file!r}: {problem}")
     try:  # a model file first, quick to load: the bearing it learnt is the trace's default
-        model = load_model(model_path) if model_path else None
+        model = load_model(model_path, log=_note) if model_path else None
     except ModelError as exc:
         raise InputError(str(exc)) from None
     if bearing is None and model is not None:
@@ -142,7 +147,7 @@ def estimate(
         raise InputError(str(exc)) from None
     if model is None:
         try:
-            model = default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
+            model = default_model(log=_note)
         except ModelError as exc:
             raise InputError(str(exc)) from None
     _check_prior(model, healthy_prior)
@@ -332,11 +337,7 @@ def monitor(
     except TraceError as exc:
         raise InputError(str(exc)) from None
     try:
-        model = (
-            load_model(model_path)
-            if model_path
-            else default_model(log=lambda m: click.echo(f"signatelec: {m}", err=True))
-        )
+        model = load_model(model_path, log=_note) if model_path else default_model(log=_note)
     except ModelError as exc:
         raise InputError(str(exc)) from None
     _check_prior(model, healthy_prior)  # before the trace is read

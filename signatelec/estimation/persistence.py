@@ -178,9 +178,10 @@ def _check_intact(header: dict, body: bytes, path: str | Path) -> None:
         raise ModelError(path, "checksum mismatch (corrupted or edited)", "retrain or delete it")
 
 
-def load_model(path: str | Path) -> LoadStateModel:
+def load_model(path: str | Path, log: Callable[[str], None] | None = None) -> LoadStateModel:
     """Read a model file after checking its header, versions, length and checksum;
-    :class:`ModelError` (one line) when it cannot be used."""
+    :class:`ModelError` (one line) when it cannot be used. ``log`` gets one line when a part of
+    the model is left unused (a condition model of one condition)."""
     header, body = _read(path)
     check_compatible(header, path)
     _check_intact(header, body, path)
@@ -195,6 +196,12 @@ def load_model(path: str | Path) -> LoadStateModel:
         # a file trained on one condition (a healthy dataset's) before such a table trained
         # none: it would call every trace that one, with certainty
         model.condition = None
+        if log is not None:
+            log(
+                f"warning: model file {str(path)!r}: its condition model knows one condition "
+                f"({', '.join(map(str, condition.estimator.classes_))}); the bearing's condition "
+                "is not assessed"
+            )
     return model
 
 
