@@ -355,14 +355,23 @@ def test_assessments_follow_a_cadence_shorter_than_a_block(model_file, tile, tmp
 
 @pytest.mark.parametrize(
     ("end", "last"),
-    [("past whole blocks", 9.8), ("last sample missing", 9.6), ("last speeds missing", 9.6)],
+    [
+        ("past whole blocks", 9.8),
+        ("last sample missing", 9.6),
+        ("last speeds missing", 9.6),
+        ("last block refused", 9.8),
+        ("a gap, then less than a window", 9.8),
+    ],
 )
 def test_the_records_last_usable_window_is_assessed(model_file, tile, tmp_path, end, last):
     """The record's last window that can be assessed is, if more than a hop after the last
     assessed, however the record ends: 0.15 s past its last whole 2 s block (fewer samples
-    than a window), its last window cut short by the repair of a missing sample, or refused
-    for its missing speeds (the one before it, then)."""
-    seconds = 10.15 if end == "past whole blocks" else 10.0
+    than a window), its last window cut short by the repair of a missing sample, refused for
+    its missing speeds (the one before it, then), in a 2 s block refused as an open circuit,
+    or in a gap followed by less than a window of samples (the last before them, then)."""
+    seconds = {"past whole blocks": 10.15, "last block refused": 12.0}.get(end, 10.0)
+    if end == "a gap, then less than a window":
+        seconds = 11.1
     path = _record(tile, [("healthy", seconds)], tmp_path / "end.parquet", seed=3)
     frame = pd.read_parquet(path)
     settings = MonitorSettings(omega_rad_s=OMEGA, condition_every_s=3.0)
@@ -371,11 +380,16 @@ def test_the_records_last_usable_window_is_assessed(model_file, tile, tmp_path, 
     if end == "last speeds missing":
         frame["speed"] = np.where(frame["time_s"] >= 9.8, np.nan, OMEGA)
         settings = MonitorSettings(omega_rad_s=None, speed_column="speed", condition_every_s=3.0)
+    if end == "last block refused":
+        frame.loc[frame["time_s"] >= 10.0, "resistance_ohm"] = -1.0
+    if end == "a gap, then less than a window":
+        frame = frame[(frame["time_s"] < 10.0) | (frame["time_s"] >= 11.0)]
     frame.to_parquet(path)
     from signatelec.estimation.persistence import load_model
 
     windows = monitor_trace(path, load_model(model_file), settings).frame()
-    assert windows["start_s"].max() == pytest.approx(9.8)
+    # the record's last window (the refused block's, the gap's) comes after the last usable
+    assert windows["start_s"].max() == pytest.approx({12.0: 11.8, 11.1: 10.8}.get(seconds, 9.8))
     starts = windows.loc[windows["condition"].notna(), "start_s"].to_numpy()
     assert starts == pytest.approx([0.0, 3.0, 6.0, 9.0, last])
 

@@ -63,6 +63,7 @@ from signatelec.estimation.monitor_settings import (
     first_gaps,
     gap_rows,
     omega_of,
+    set_filed,
     speed_given,
     speed_of,
     speed_refusal,
@@ -143,6 +144,7 @@ class _Windows:
         self.condition_noted = False
         self.pending: list[dict] = []  # windows waiting for the model
         self.unmeasured: list[tuple] = []  # (row, analysis) of windows waiting for features
+        self.last_usable = None  # (row, segment, rate, speed) of the last window assessable
 
     def add(self, chunk) -> None:
         if self.ended:
@@ -211,6 +213,7 @@ class _Windows:
     def finish(self) -> None:
         while self.fs is not None and self._block(final=True):
             pass
+        self._assess_last_usable()
         self.flush()
         if self.repaired:
             self.table.notes.append(
@@ -253,23 +256,17 @@ class _Windows:
             if n_per < 1:
                 return False
             end_needed = start + (n_per - 1) * hop + win
-        # the record's last block, if no further window fits yet: it waits for more samples, or
-        # for the end of the record, when its last usable window is assessed (``closing``)
-        closing = (last + 1.0 / self.block_fs - end_needed) / hop < 1.0 - 1e-9
-        if closing and not final:
-            return False
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
         hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
         omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
         taken = self._in_gaps(lo, hi, start, n_per, omega)
         if not taken:
-            self._estimate(lo, hi, start, n_per, final, closing, omega)
+            self._estimate(lo, hi, start, n_per, final, omega)
         elif taken[0][0] > 0:  # the windows before the gap, as a block of their own
-            # (they close the record if the gaps take the rest of the block)
-            n_per, closing = taken[0][0], closing and first_gaps(taken)[-1][1] >= n_per
+            n_per = taken[0][0]
             end = start + (n_per - 1) * hop + win
             hi = int(np.searchsorted(self.at, end - 0.5 / self.fs))
-            self._estimate(lo, hi, start, n_per, closing=closing)
+            self._estimate(lo, hi, start, n_per)
         else:  # the windows the gaps take (none beyond the record's last sample)
             n_per = self._no_data(start, taken, n_per if final else None)
             if not n_per:
@@ -291,6 +288,29 @@ class _Windows:
             return []
         limit = MAX_GAP_BALL_PASSES / expected_ball_pass_hz(omega, self.s.bearing)
         return windows_in_gaps(times, limit, start, self.s, self.fs, n_per)
+
+    def _assess_last_usable(self) -> None:
+        """The record's last usable window (of full length, not refused) is assessed for its
+        condition too, if more than a hop after the last assessed, however the record ends (past
+        its last whole block, in a refused block, in a gap): a condition that appears in its
+        final minutes is not left unsaid. Its row, pending or filed, gets the assessment."""
+        if self.last_usable is None:
+            return
+        row, seg, fs, omega = self.last_usable
+        last_assessed = self.next_condition_s - self.s.condition_every_s
+        if row["start_s"] - last_assessed <= 1.000001 * self.s.hop:
+            return
+        clock = time.process_time()
+        (analysis,) = analyse_windows(
+            seg[np.newaxis], fs, [omega], bearing=self.s.learnt, **analysed(self.model)
+        )
+        late = {"start_s": row["start_s"], "_condition": (seg, fs, omega)}
+        self._assess(late, window_features([analysis])[0], analysis)
+        del late["start_s"]
+        row.update(late)
+        if not any(pending is row for pending in self.pending):  # filed: its frame's row
+            set_filed(self.table.parts, row["start_s"], late)
+        self.table.cpu_s += time.process_time() - clock
 
     def _no_data(self, start: float, taken: list[tuple], most: int | None) -> int:
         """File the windows from ``start`` that the first gaps of ``taken`` (:meth:`_in_gaps`)
@@ -404,7 +424,7 @@ class _Windows:
             self.table.notes.append(f"at t = {time_text(row['start_s'])} s: {note}")
             self.condition_noted = True
 
-    def _estimate(self, lo, hi, start, n_per, final=False, closing=False, omega=None) -> None:
+    def _estimate(self, lo, hi, start, n_per, final=False, omega=None) -> None:
         """Estimate ``n_per`` windows from ``start`` (samples lo:hi; ``omega``: their speed)."""
         clock = time.process_time()
         self.blocks += 1
@@ -467,14 +487,14 @@ class _Windows:
         every = self.s.condition_every_s
         assess = getattr(self.model, "condition", None) is not None and every is not None
         todo = []  # (row, segment, omega) of the windows to measure
-        # each window's speed, why it is refused for it if it is, and the record's last window
-        # that can be assessed (of full length, not refused: ``closing``)
+        # each window's speed, why it is refused for it if it is, and the block's last window
+        # that can be assessed (of full length, not refused): the record's, if none follows
         omegas, refused = [omega_block] * n_per, [None] * n_per
         if speed is not None and trace is not None:
             omegas = [speed_of(speed[k * hop_n : k * hop_n + win_n]) for k in range(n_per)]
             refused = [speed_refusal(w, self.s) for w in omegas]
         last_full = -1 if trace is None else (trace.resistance_ohm.size - win_n) // hop_n
-        closing_k = max([k for k in range(min(n_per, last_full + 1)) if not refused[k]], default=-1)
+        usable_k = max([k for k in range(min(n_per, last_full + 1)) if not refused[k]], default=-1)
         for k in range(n_per):
             t_start = start + k * self.s.hop
             row = {
@@ -495,13 +515,12 @@ class _Windows:
             if refused[k]:
                 row["status"] = f"refused: {refused[k]}"
                 continue
-            # the window nearest the due time, a tie to the later (1.5 hops: every second one),
-            # and the record's last usable, if more than a hop after the last assessed
+            # the window nearest the due time, a tie to the later (1.5 hops: every second one)
             due = assess and t_start >= self.next_condition_s - (0.5 - 1e-6) * self.s.hop
-            if assess and closing and k == closing_k:
-                due = due or t_start - (self.next_condition_s - every) > 1.000001 * self.s.hop
+            measured = self.tracked if self.s.track_speed and speed is None else omega
+            if assess and k == usable_k and seg.size == win_n:
+                self.last_usable = (row, seg.copy(), trace.sample_rate_hz, measured)
             if due and seg.size == win_n:
-                measured = self.tracked if self.s.track_speed and speed is None else omega
                 row["_condition"] = (seg.copy(), trace.sample_rate_hz, measured)
                 self.next_condition_s = t_start + every
             elif not self.s.load_state:  # nothing to estimate: the envelope alone

@@ -282,6 +282,17 @@ def first_gaps(taken: list[tuple]) -> list[tuple]:
     return run
 
 
+def set_filed(parts: list[pd.DataFrame], start_s: float, values: dict) -> None:
+    """Set ``values`` in the row of the window from ``start_s`` among the frames of windows
+    filed (``parts``, in time order: searched from the last)."""
+    for part in reversed(parts):
+        at = part["start_s"] == start_s
+        if at.any():
+            for key, value in values.items():
+                part.loc[at, key] = value
+            return
+
+
 def gap_rows(starts: np.ndarray, window_s: float, gap: tuple, ripple: str) -> pd.DataFrame:
     """The rows of the windows from ``starts`` that a gap (last time before, first time after)
     takes: status "no data", naming the gap."""
