@@ -636,6 +636,38 @@ def test_ctrl_c_while_measuring_features_leaves_no_window_without_estimate(
     assert not ok["radial_load_n"].isna().any()
 
 
+def test_ctrl_c_while_a_block_is_filed_files_its_windows_once(
+    model_file, tiles, tmp_path, monkeypatch
+):
+    """Ctrl-C that lands while a block's windows are filed (--follow, here every 10 windows)
+    leaves them to be filed when the reading ends, each once (the block had not been counted
+    yet, and was cut again: 10 windows twice)."""
+    import signatelec.estimation.monitor as monitor
+    from signatelec.estimation.persistence import load_model
+
+    t, r, _ = _record(tiles, [("low", 10.15)], seed=5)
+    path = _write(tmp_path / "trace.csv", t, r)
+    measured = monitor.window_features
+    batches = []
+
+    def interrupted_in_the_fourth_filing(analyses):
+        batches.append(len(analyses))
+        if len(batches) == 4:
+            raise KeyboardInterrupt
+        return measured(analyses)
+
+    monkeypatch.setattr(monitor, "window_features", interrupted_in_the_fourth_filing)
+    monkeypatch.setattr(monitor, "FOLLOW_BATCH_WINDOWS", 10)
+    settings = MonitorSettings(
+        omega_rad_s=OMEGA, follow=True, follow_idle_s=0.3, condition_every_s=None
+    )
+    table = monitor_trace(path, load_model(model_file), settings)
+    windows = table.frame()
+    assert table.interrupted and batches[:4] == [10] * 4
+    assert not windows["start_s"].duplicated().any()
+    assert np.allclose(np.diff(windows["start_s"]), 0.2)
+
+
 # --- the record's time base ---------------------------------------------------------------------
 
 
@@ -728,21 +760,22 @@ def test_ctrl_c_inside_a_compiled_call_is_an_interruption(model_file, tiles, tmp
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("batch", [1000, 20])
+@pytest.mark.parametrize(("batch", "seconds"), [(1000, 9.0), (20, 9.0), (1000, 10.15)])
 def test_a_speed_gone_wrong_between_screens_is_not_confident(
-    model_file, tiles, tmp_path, monkeypatch, batch
+    model_file, tiles, tmp_path, monkeypatch, batch, seconds
 ):
     """The shaft turns at 600 rad/s from 4 s while --omega says 500: the windows cannot tell
     (their features read as another regime, with a confident regime alarm), the ripple screen
     of the record's last block can: it finds no line there. The windows since the last screen
     that found the line are "unconfirmed": their stretches are warned and no regime call or
     alarm is confident (the record ending before the next screen at 10 s, nothing was
-    caught)."""
+    caught). The last block is screened however the record ends (10.15 s: less than a window
+    past it)."""
     import signatelec.estimation.monitor as monitor
     from signatelec.estimation.monitor_report import summary_of
 
     monkeypatch.setattr(monitor, "BATCH_WINDOWS", batch)  # 20: windows filed every 4 s
-    t, r, _ = _record(tiles, [("low", 9.0)], seed=13)
+    t, r, _ = _record(tiles, [("low", seconds)], seed=13)
     fast = np.interp(4.0 + 1.2 * (t - 4.0), t, r)  # the same ripple 1.2x faster from 4 s
     path = _write(tmp_path / "speed.parquet", t, np.where(t < 4.0, r, fast))
     from signatelec.estimation.persistence import load_model

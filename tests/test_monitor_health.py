@@ -798,6 +798,7 @@ def test_another_bearing_is_monitored_for_its_condition_alone(
     # every 2 s and the record's last window: 41 assessed, and only those analysed
     assert assessed.sum() == 41 and sum(analysed) == 41
     assert windows.loc[assessed, "start_s"].max() == pytest.approx(79.8)
+    assert windows.loc[assessed, "level_mean_ohm"].notna().all()  # the last one's too
     assert windows["status"].str.startswith("no load state").all()
     assert "radial_load_n" not in windows and windows["resistance_max_ohm"].notna().all()
     assert [s["condition"] for s in stretches] == ["healthy", "outer"]

@@ -67,6 +67,7 @@ from signatelec.estimation.monitor_settings import (
     speed_given,
     speed_of,
     speed_refusal,
+    unconfirmed,
     windows_in_gaps,
 )
 from signatelec.interrupts import interruption
@@ -256,6 +257,10 @@ class _Windows:
             if n_per < 1:
                 return False
             end_needed = start + (n_per - 1) * hop + win
+        # the record's last block, if no further window fits yet, waits for more samples or for
+        # the end of the record, where it is screened (a speed gone wrong since the last screen)
+        if not final and (last + 1.0 / self.block_fs - end_needed) / hop < 1.0 - 1e-9:
+            return False
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
         hi = int(np.searchsorted(self.at, end_needed - 0.5 / self.fs))
         omega = omega_of(self.s, None if self.v is None else self.v[lo:hi], self.tracked)
@@ -278,6 +283,9 @@ class _Windows:
         self.t, self.at, self.r = self.t[keep:], self.at[keep:], self.r[keep:]
         if self.v is not None:
             self.v = self.v[keep:]
+        # (once the block's windows are counted: a Ctrl-C in the flush leaves them pending)
+        if len(self.pending) >= (FOLLOW_BATCH_WINDOWS if self.s.follow else BATCH_WINDOWS):
+            self.flush()
         return True
 
     def _in_gaps(self, lo: int, hi: int, start: float, n_per: int, omega: float) -> list[tuple]:
@@ -290,10 +298,9 @@ class _Windows:
         return windows_in_gaps(times, limit, start, self.s, self.fs, n_per)
 
     def _assess_last_usable(self) -> None:
-        """The record's last usable window (of full length, not refused) is assessed for its
-        condition too, if more than a hop after the last assessed, however the record ends (past
-        its last whole block, in a refused block, in a gap): a condition that appears in its
-        final minutes is not left unsaid. Its row, pending or filed, gets the assessment."""
+        """The record's last usable window (full, not refused) is assessed too if more than a
+        hop after the last assessed, however the record ends (past its last whole block, in a
+        refused block, in a gap); its row, pending or filed, gets the assessment."""
         if self.last_usable is None:
             return
         row, seg, fs, omega = self.last_usable
@@ -301,11 +308,12 @@ class _Windows:
         if row["start_s"] - last_assessed <= 1.000001 * self.s.hop:
             return
         clock = time.process_time()
-        (analysis,) = analyse_windows(
-            seg[np.newaxis], fs, [omega], bearing=self.s.learnt, **analysed(self.model)
-        )
         late = {"start_s": row["start_s"], "_condition": (seg, fs, omega)}
-        self._assess(late, window_features([analysis])[0], analysis)
+        self._measure([(late, seg, omega)], fs)  # (as any window due: features, condition)
+        self._features()
+        late.pop("_features", None)
+        if late.pop("status", None) is not None:  # refused (measured once already: unexpected)
+            return
         del late["start_s"]
         row.update(late)
         if not any(pending is row for pending in self.pending):  # filed: its frame's row
@@ -350,17 +358,7 @@ class _Windows:
             "is gone: the windows since the last screen that found it, at t = "
             f"{time_text(since)} s, may have been read at a wrong speed (ripple 'unconfirmed')"
         )
-        for row in self.pending:
-            if row["start_s"] >= since:
-                row["ripple"] = "unconfirmed"
-                row["regime_confident"] = False
-        for part in reversed(self.table.parts):  # batches filed since
-            if not len(part) or part["start_s"].max() < since:
-                break
-            at = part["start_s"] >= since
-            part.loc[at, "ripple"] = "unconfirmed"
-            if "regime_confident" in part:
-                part.loc[at, "regime_confident"] = False
+        unconfirmed(self.pending, self.table.parts, since)
 
     def _measure(self, windows, fs: float) -> None:
         """Analyses of windows [(row, segment, omega)] of one length, computed together
@@ -540,8 +538,6 @@ class _Windows:
                 self._measure([w], trace.sample_rate_hz)
         self.pending.extend(rows)
         self.table.cpu_s += time.process_time() - clock
-        if len(self.pending) >= (FOLLOW_BATCH_WINDOWS if self.s.follow else BATCH_WINDOWS):
-            self.flush()
 
 
 def monitor_trace(

@@ -293,6 +293,22 @@ def set_filed(parts: list[pd.DataFrame], start_s: float, values: dict) -> None:
             return
 
 
+def unconfirmed(pending: list[dict], parts: list[pd.DataFrame], since: float) -> None:
+    """The windows from ``since``, pending (rows) or filed (frames), take the ripple status
+    "unconfirmed", their regime not confident."""
+    for row in pending:
+        if row["start_s"] >= since:
+            row["ripple"] = "unconfirmed"
+            row["regime_confident"] = False
+    for part in reversed(parts):  # batches filed since
+        if not len(part) or part["start_s"].max() < since:
+            break
+        at = part["start_s"] >= since
+        part.loc[at, "ripple"] = "unconfirmed"
+        if "regime_confident" in part:
+            part.loc[at, "regime_confident"] = False
+
+
 def gap_rows(starts: np.ndarray, window_s: float, gap: tuple, ripple: str) -> pd.DataFrame:
     """The rows of the windows from ``starts`` that a gap (last time before, first time after)
     takes: status "no data", naming the gap."""

@@ -309,6 +309,9 @@ def throughput_table(
         proc = subprocess.run(
             [sys.executable, "-c", _RUN, *args], capture_output=True, text=True, check=False
         )
+        if proc.returncode != 0 or not proc.stdout.strip():
+            said = (proc.stderr.strip().splitlines() or ["nothing on stderr"])[-1]
+            raise RuntimeError(f"signatelec {' '.join(args)}: exit {proc.returncode}: {said}")
         usage = json.loads(proc.stdout.strip().splitlines()[-1])
         summary = json.loads((out / "summary.json").read_text())
         trace_s = summary["trace"]["duration_s"]
