@@ -607,6 +607,20 @@ def test_acceptance_figures_follow_the_acceptance_definitions():
     assert f["coverage_epsilon"] == pytest.approx(3 / 4)
 
 
+def _interrupt_features(monkeypatch, monitor, call: int) -> list[int]:
+    """Ctrl-C in the monitor's ``call``-th measuring of features; the windows of each call."""
+    measured, calls = monitor.window_features, []
+
+    def interrupted_once(analyses):
+        calls.append(len(analyses))
+        if len(calls) == call:
+            raise KeyboardInterrupt
+        return measured(analyses)
+
+    monkeypatch.setattr(monitor, "window_features", interrupted_once)
+    return calls
+
+
 def test_ctrl_c_while_measuring_features_leaves_no_window_without_estimate(
     model_file, tiles, tmp_path, monkeypatch
 ):
@@ -618,16 +632,7 @@ def test_ctrl_c_while_measuring_features_leaves_no_window_without_estimate(
 
     t, r, _ = _record(tiles, [("low", 24.0)], seed=5)  # 480 windows: batches of 100 as read
     path = _write(tmp_path / "trace.csv", t, r)
-    measured = monitor.window_features
-    calls = []
-
-    def interrupted_once(analyses):
-        calls.append(len(analyses))
-        if len(calls) == 2:
-            raise KeyboardInterrupt
-        return measured(analyses)
-
-    monkeypatch.setattr(monitor, "window_features", interrupted_once)
+    calls = _interrupt_features(monkeypatch, monitor, 2)
     settings = MonitorSettings(omega_rad_s=OMEGA, hop_s=0.05, follow=True, follow_idle_s=0.3)
     table = monitor_trace(path, load_model(model_file), settings)
     windows = table.frame()
@@ -647,16 +652,7 @@ def test_ctrl_c_while_a_block_is_filed_files_its_windows_once(
 
     t, r, _ = _record(tiles, [("low", 10.15)], seed=5)
     path = _write(tmp_path / "trace.csv", t, r)
-    measured = monitor.window_features
-    batches = []
-
-    def interrupted_in_the_fourth_filing(analyses):
-        batches.append(len(analyses))
-        if len(batches) == 4:
-            raise KeyboardInterrupt
-        return measured(analyses)
-
-    monkeypatch.setattr(monitor, "window_features", interrupted_in_the_fourth_filing)
+    batches = _interrupt_features(monkeypatch, monitor, 4)  # in the fourth filing
     monkeypatch.setattr(monitor, "FOLLOW_BATCH_WINDOWS", 10)
     settings = MonitorSettings(
         omega_rad_s=OMEGA, follow=True, follow_idle_s=0.3, condition_every_s=None
