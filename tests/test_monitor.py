@@ -309,6 +309,30 @@ def test_speed_column_and_tracking(model_file, tiles, tmp_path):
     assert tracked.frame()["omega_rad_s"].iloc[-5:].to_numpy() == pytest.approx(OMEGA, rel=0.002)
 
 
+def test_a_run_up_is_monitored_with_its_speed_column(model_file, tiles, tmp_path):
+    """A test bench's run-up, 500 to 600 rad/s in 20 s (1 % a second: a 2 s block's ends lie
+    2 % apart, seven times the ripple screen's tolerance), read with its speed column: each
+    screen reads its own span at the column's speed there, so every window is estimated (at
+    the block's median speed the screens had refused the blocks from 4 s on), at its own
+    speed, F_r within 1 % of the state's 5000 N throughout."""
+    from signatelec.estimation.persistence import load_model
+
+    accel = 5.0  # rad/s^2
+    t, r, _ = _record(tiles, [("low", 22.0)], seed=4)
+    phase = t + 0.5 * accel / OMEGA * t**2  # the 500 rad/s record's time at each instant
+    t_run = t[phase <= t[-1]]
+    speed = OMEGA + accel * t_run
+    path = _write(tmp_path / "runup.parquet", t_run, np.interp(phase[: t_run.size], t, r),
+                  speed_rad_s=speed)  # fmt: skip
+    windows = monitor_trace(
+        path, load_model(model_file), MonitorSettings(speed_column="speed_rad_s")
+    ).frame()
+    assert (windows["status"] == "ok").all() and windows["end_s"].max() > 19.9
+    middle = OMEGA + accel * windows["time_s"]
+    assert windows["omega_rad_s"].to_numpy() == pytest.approx(middle.to_numpy(), rel=1e-3)
+    assert windows["radial_load_n"].to_numpy() == pytest.approx(5000.0, rel=0.01)
+
+
 def test_follow_a_growing_csv(model_file, tiles, tmp_path):
     """--follow reads lines appended while it runs (a last line without its break waits)."""
     t, r, _ = _record(tiles, [("low", 2.0)], seed=3)

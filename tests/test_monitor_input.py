@@ -361,13 +361,13 @@ def test_alarm_into_a_stretch_without_line_not_confident():
 
 def test_wrong_speed_column_named(tmp_path):
     """A speed column whose speed the ripple contradicts (a ripple at 500 rad/s, the column
-    300 rad/s): the refusal names the column and its mean over the block (it said "for
-    --omega 300", an option the user did not give)."""
+    300 rad/s): the refusal names the column and its median over the screened samples, the
+    first 0.5 s (it said "for --omega 300", an option the user did not give)."""
     path = _trace(tmp_path / "speed.parquet", speed=np.full(int(FS), 300.0))
     message = _refused(path, speed_column="speed")
     assert "--omega" not in message
     assert f"expected {expected_ball_pass_hz(300.0):.1f} Hz for --speed-column 'speed' " in message
-    assert "(its median 300 rad/s over 0-0.99995 s)" in message
+    assert "(its median 300 rad/s over 0-0.5 s)" in message
     assert "the trace's speed is about 500 rad/s" in message
 
 

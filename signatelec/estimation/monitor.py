@@ -63,6 +63,7 @@ from signatelec.estimation.monitor_settings import (
     first_gaps,
     gap_rows,
     omega_of,
+    screen_speeds,
     set_filed,
     speed_given,
     speed_of,
@@ -257,8 +258,7 @@ class _Windows:
             if n_per < 1:
                 return False
             end_needed = start + (n_per - 1) * hop + win
-        # the record's last block, if no further window fits yet, waits for more samples or for
-        # the end of the record, where it is screened (a speed gone wrong since the last screen)
+        # the record's last block (no further window fits yet) waits for the end, its screen's
         if not final and (last + 1.0 / self.block_fs - end_needed) / hop < 1.0 - 1e-9:
             return False
         lo = int(np.searchsorted(self.at, start - 0.5 / self.fs))
@@ -448,12 +448,13 @@ class _Windows:
             # and the record's last blocks: a speed gone wrong since the last screen is named
             long = trace.duration_s >= SCREEN_S  # (a shorter screen misses lines)
             if self.first or long and (final or start >= self.next_screen_s):
-                given = speed_given(self.s, omega_block, start, self.at[hi - 1], self.first)
-                assessed = self.s.condition_every_s is not None
-                window = self.s.window_s if assessed else None  # a defect's line to confirm
-                try:
+                ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block)
+                screened = min(start + SCREEN_S, self.at[hi - 1])  # (the first screen's span)
+                given = speed_given(self.s, ends[0], start, screened, self.first)
+                window = self.s.window_s if self.s.condition_every_s is not None else None
+                try:  # (window: a defect's line to confirm)
                     ripple, note = screen_block(
-                        trace, omega_block, self.model, self.first, given, window, self.s.bearing
+                        trace, ends, self.model, self.first, given, window, self.s.bearing
                     )
                 except TraceError:
                     if self.last_screen_s is not None:

@@ -36,12 +36,14 @@ KEPT_FEATURES = (
 
 
 def screen_block(
-    trace, omega, model: LoadStateModel, first: bool, speed=None, window_s=None, bearing=None
+    trace, omegas, model: LoadStateModel, first: bool, speed=None, window_s=None, bearing=None
 ):
     """(ripple status, note) of a block's first :data:`SCREEN_S`, or TraceError naming ``speed``
-    (what the user gave for ``omega``: :func:`~signatelec.estimation.monitor_settings.
-    speed_given`). A later block whose first :data:`SCREEN_S` shows the line elsewhere has its
-    last :data:`SCREEN_S` screened too, and is refused
+    (what the user gave for the speed: :func:`~signatelec.estimation.monitor_settings.
+    speed_given`). ``omegas``: the speeds of the block's first and last :data:`SCREEN_S`
+    (:func:`~signatelec.estimation.monitor_settings.screen_speeds`). A later block whose first
+    :data:`SCREEN_S` shows the line elsewhere has its last :data:`SCREEN_S` screened too, and is
+    refused
     only when both do: a change of state within the screened trace joins two ripples whose
     phases do not continue, which can move the periodogram's peak out of the tolerance (a
     calibration record's zero-to-preload step 0.24 s into a screen put it at +0.56 %). A line
@@ -50,6 +52,7 @@ def screen_block(
     confidently calls that very condition on the block's first window, as ``estimate`` keeps a
     trace (:func:`~signatelec.estimation.health.defect_explains`). ``bearing``: its geometry,
     which places the ball-pass and the defects' lines (default: the seed's)."""
+    omega, omega_last = omegas
     n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
     r = trace.resistance_ohm[:n]
     note = None
@@ -57,7 +60,8 @@ def screen_block(
         note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
     ripple = find_ripple(r, trace.sample_rate_hz, omega, bearing=bearing)
     if ripple.status == "elsewhere" and not first and trace.resistance_ohm.size >= 2 * n:
-        again = find_ripple(trace.resistance_ohm[-n:], trace.sample_rate_hz, omega, bearing=bearing)
+        end = trace.resistance_ohm[-n:]
+        again = find_ripple(end, trace.sample_rate_hz, omega_last, bearing=bearing)
         if again.status not in ("elsewhere", "constant"):
             ripple = again
     if (

@@ -238,8 +238,18 @@ def omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float
     return float(settings.omega_rad_s)
 
 
+def screen_speeds(speed: np.ndarray | None, n: int, omega: float) -> tuple[float, float]:
+    """The speeds a block's screens read its first and last ``n`` samples at: a speed column's
+    median over each (a run-up's speed differs between a block's ends by more than a screen's
+    tolerance: 300 to 700 rad/s in a minute is 2.3 % a block), else the block's ``omega``."""
+    if speed is None:
+        return omega, omega
+    ends = (speed_of(speed[:n]), speed_of(speed[-n:]))
+    return tuple(w if math.isfinite(w) and w > 0 else omega for w in ends)
+
+
 def speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: float, first):
-    """How a refusal names the speed ``omega`` of the block ``start_s``-``end_s``: what the user
+    """How a refusal names the speed ``omega`` of the trace ``start_s``-``end_s``: what the user
     gave (the speed column's median there, the speed tracked from the ball-pass line), or None
     for --omega (:meth:`~signatelec.measurement.ripple.Ripple.problem`'s own words)."""
     if settings.speed_column is not None:
