@@ -309,28 +309,60 @@ def test_speed_column_and_tracking(model_file, tiles, tmp_path):
     assert tracked.frame()["omega_rad_s"].iloc[-5:].to_numpy() == pytest.approx(OMEGA, rel=0.002)
 
 
-def test_a_run_up_is_monitored_with_its_speed_column(model_file, tiles, tmp_path):
+@pytest.mark.parametrize("speed", ["column", "tracked from 0.6 % off"])
+def test_a_run_up_is_monitored(model_file, tiles, tmp_path, speed):
     """A test bench's run-up, 500 to 600 rad/s in 20 s (1 % a second: a 2 s block's ends lie
-    2 % apart, seven times the ripple screen's tolerance), read with its speed column: each
-    screen reads its own span at the column's speed there, so every window is estimated (at
-    the block's median speed the screens had refused the blocks from 4 s on), at its own
-    speed, F_r within 1 % of the state's 5000 N throughout."""
+    2 % apart, seven times the ripple screen's tolerance). Read with its speed column, each
+    screen reads its own span at the column's speed there (at the block's median speed the
+    screens had refused the blocks from 4 s on); tracked from the ball-pass line (--omega
+    0.6 % low), a screen that finds the line moved within 10 % moves the tracked speed there
+    (it had refused the first block, and then every block once the tracking lagged by more
+    than the screen's tolerance). Every window is estimated at its own speed, F_r within 1 %
+    of the state's 5000 N throughout."""
     from signatelec.estimation.persistence import load_model
 
     accel = 5.0  # rad/s^2
     t, r, _ = _record(tiles, [("low", 22.0)], seed=4)
     phase = t + 0.5 * accel / OMEGA * t**2  # the 500 rad/s record's time at each instant
     t_run = t[phase <= t[-1]]
-    speed = OMEGA + accel * t_run
     path = _write(tmp_path / "runup.parquet", t_run, np.interp(phase[: t_run.size], t, r),
-                  speed_rad_s=speed)  # fmt: skip
-    windows = monitor_trace(
-        path, load_model(model_file), MonitorSettings(speed_column="speed_rad_s")
-    ).frame()
+                  speed_rad_s=OMEGA + accel * t_run)  # fmt: skip
+    settings = MonitorSettings(speed_column="speed_rad_s")
+    if speed != "column":
+        settings = MonitorSettings(omega_rad_s=0.994 * OMEGA, track_speed=True)
+    windows = monitor_trace(path, load_model(model_file), settings).frame()
     assert (windows["status"] == "ok").all() and windows["end_s"].max() > 19.9
-    middle = OMEGA + accel * windows["time_s"]
-    assert windows["omega_rad_s"].to_numpy() == pytest.approx(middle.to_numpy(), rel=1e-3)
+    middle = (OMEGA + accel * windows["time_s"]).to_numpy()
+    # the tracked speed: the last window's line, 0.2 s (0.2 %) behind, with the slip allowance
+    tolerance = 1e-3 if speed == "column" else 5e-3
+    assert windows["omega_rad_s"].to_numpy() == pytest.approx(middle, rel=tolerance)
     assert windows["radial_load_n"].to_numpy() == pytest.approx(5000.0, rel=0.01)
+
+
+def test_a_tracked_speed_follows_a_step_at_the_next_screen(model_file, tiles, tmp_path):
+    """A drive that steps from 500 to 515 rad/s (3 %) at 15 s, tracked from the ball-pass
+    line: the windows' own search (+-1 %) loses the line, the screen at 20 s finds it 3 %
+    away and the tracked speed moves there, with a note; the windows since the last screen
+    (10 s) may have been read at a wrong speed and are "unconfirmed" (none is confident); from
+    20 s the windows are read at 515 rad/s, F_r within 1 %. Every block after the step had been
+    refused."""
+    from signatelec.estimation.persistence import load_model
+
+    t, r, _ = _record(tiles, [("low", 30.0)], seed=6)
+    phase = np.where(t < 15.0, t, 15.0 + 1.03 * (t - 15.0))
+    t_run = t[phase <= t[-1]]
+    path = _write(tmp_path / "step.parquet", t_run, np.interp(phase[: t_run.size], t, r))
+    settings = MonitorSettings(omega_rad_s=OMEGA, track_speed=True)
+    table = monitor_trace(path, load_model(model_file), settings)
+    windows = table.frame()
+    after = windows[windows["start_s"] >= 20.0]
+    assert len(after) == 47 and (after["status"] == "ok").all()  # 20-29.4 s (the record: 29.56)
+    assert after["omega_rad_s"].to_numpy() == pytest.approx(1.03 * OMEGA, rel=3e-3)
+    assert after["radial_load_n"].to_numpy() == pytest.approx(5000.0, rel=0.01)
+    between = windows[(windows["start_s"] >= 10.0) & (windows["start_s"] < 20.0)]
+    assert (between["ripple"] == "unconfirmed").all()
+    assert not between["regime_confident"].fillna(False).astype(bool).any()
+    assert any("the speed tracked follows it" in n for n in table.notes), table.notes
 
 
 def test_follow_a_growing_csv(model_file, tiles, tmp_path):

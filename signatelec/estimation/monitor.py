@@ -61,6 +61,7 @@ from signatelec.estimation.monitor_settings import (
     MonitorSettings,
     check_rate,
     first_gaps,
+    followed,
     gap_rows,
     omega_of,
     screen_speeds,
@@ -75,6 +76,7 @@ from signatelec.interrupts import interruption
 from signatelec.measurement.stream import read_chunks, trace_label
 from signatelec.measurement.traces import (
     MAX_GAP_BALL_PASSES,
+    SEARCH_REL,
     TraceError,
     prepare_trace,
     sampling_step,
@@ -147,6 +149,7 @@ class _Windows:
         self.pending: list[dict] = []  # windows waiting for the model
         self.unmeasured: list[tuple] = []  # (row, analysis) of windows waiting for features
         self.last_usable = None  # (row, segment, rate, speed) of the last window assessable
+        self.followed = False  # whether a screen moved the tracked speed
 
     def add(self, chunk) -> None:
         if self.ended:
@@ -283,9 +286,8 @@ class _Windows:
         self.t, self.at, self.r = self.t[keep:], self.at[keep:], self.r[keep:]
         if self.v is not None:
             self.v = self.v[keep:]
-        # (once the block's windows are counted: a Ctrl-C in the flush leaves them pending)
         if len(self.pending) >= (FOLLOW_BATCH_WINDOWS if self.s.follow else BATCH_WINDOWS):
-            self.flush()
+            self.flush()  # (the block counted: a Ctrl-C in the flush leaves its windows pending)
         return True
 
     def _in_gaps(self, lo: int, hi: int, start: float, n_per: int, omega: float) -> list[tuple]:
@@ -298,9 +300,8 @@ class _Windows:
         return windows_in_gaps(times, limit, start, self.s, self.fs, n_per)
 
     def _assess_last_usable(self) -> None:
-        """The record's last usable window (full, not refused) is assessed too if more than a
-        hop after the last assessed, however the record ends (past its last whole block, in a
-        refused block, in a gap); its row, pending or filed, gets the assessment."""
+        """The record's last usable window (full, not refused), if more than a hop after the last
+        assessed, is assessed in its row, pending or filed, however the record ends."""
         if self.last_usable is None:
             return
         row, seg, fs, omega = self.last_usable
@@ -311,10 +312,9 @@ class _Windows:
         late = {"start_s": row["start_s"], "_condition": (seg, fs, omega)}
         self._measure([(late, seg, omega)], fs)  # (as any window due: features, condition)
         self._features()
-        late.pop("_features", None)
         if late.pop("status", None) is not None:  # refused (measured once already: unexpected)
             return
-        del late["start_s"]
+        late = {k: v for k, v in late.items() if k not in ("_features", "start_s")}
         row.update(late)
         if not any(pending is row for pending in self.pending):  # filed: its frame's row
             set_filed(self.table.parts, row["start_s"], late)
@@ -348,17 +348,10 @@ class _Windows:
         return n
 
     def _unconfirmed(self, start: float) -> None:
-        """A screen at ``start`` found the ball-pass line away from the speed's, or none: the
-        windows since the last screen that found it take the ripple status "unconfirmed"
-        (their stretches are warned of a wrong speed, :func:`~signatelec.estimation.
-        monitor_report.qualify`), with a note."""
+        """The windows since the last screen that found the line are "unconfirmed" (their
+        stretches warned, :func:`~signatelec.estimation.monitor_report.qualify`), with a note."""
         since, self.last_screen_s = self.last_screen_s, None
-        self.table.notes.append(
-            f"at t = {time_text(start)} s the ball-pass line is not where the speed puts it, or "
-            "is gone: the windows since the last screen that found it, at t = "
-            f"{time_text(since)} s, may have been read at a wrong speed (ripple 'unconfirmed')"
-        )
-        unconfirmed(self.pending, self.table.parts, since)
+        self.table.notes.append(unconfirmed(self.pending, self.table.parts, since, start))
 
     def _measure(self, windows, fs: float) -> None:
         """Analyses of windows [(row, segment, omega)] of one length, computed together
@@ -452,14 +445,21 @@ class _Windows:
                 screened = min(start + SCREEN_S, self.at[hi - 1])  # (the first screen's span)
                 given = speed_given(self.s, ends[0], start, screened, self.first)
                 window = self.s.window_s if self.s.condition_every_s is not None else None
-                try:  # (window: a defect's line to confirm)
-                    ripple, note = screen_block(
-                        trace, ends, self.model, self.first, given, window, self.s.bearing
+                track = self.s.track_speed and speed is None  # (window: a defect's to confirm)
+                try:
+                    ripple, note, moved = screen_block(
+                        trace, ends, self.model, self.first, given, window, self.s.bearing, track
                     )
                 except TraceError:
                     if self.last_screen_s is not None:
                         self._unconfirmed(start)
                     raise
+                if moved is not None:  # the windows from here at the line's speed, the first noted
+                    lost = abs(moved / omega_block - 1.0) > SEARCH_REL  # beyond the windows' search
+                    if lost and self.last_screen_s is not None:  # (they may have read a wrong one)
+                        self._unconfirmed(start)
+                    self.table.notes += [followed(start, omega_block, moved)] * (not self.followed)
+                    self.tracked, self.followed = moved / (1.0 + TYPICAL_SLIP), True
                 if ripple in ("found", "harmonic", "defect"):
                     self.last_screen_s = start
                 elif self.last_screen_s is not None:  # the line lost since the last screen

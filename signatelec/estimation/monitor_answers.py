@@ -16,6 +16,7 @@ from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import analysis_options, trace_feature_names
 from signatelec.estimation.health import defect_explains
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
+from signatelec.estimation.monitor_settings import TRACK_JUMP
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
 from signatelec.measurement.traces import N_HARMONICS, TraceError
@@ -36,9 +37,17 @@ KEPT_FEATURES = (
 
 
 def screen_block(
-    trace, omegas, model: LoadStateModel, first: bool, speed=None, window_s=None, bearing=None
+    trace,
+    omegas,
+    model: LoadStateModel,
+    first: bool,
+    speed=None,
+    window_s=None,
+    bearing=None,
+    track: bool = False,
 ):
-    """(ripple status, note) of a block's first :data:`SCREEN_S`, or TraceError naming ``speed``
+    """(ripple status, note, speed moved to or None) of a block's first :data:`SCREEN_S`, or
+    TraceError naming ``speed``
     (what the user gave for the speed: :func:`~signatelec.estimation.monitor_settings.
     speed_given`). ``omegas``: the speeds of the block's first and last :data:`SCREEN_S`
     (:func:`~signatelec.estimation.monitor_settings.screen_speeds`). A later block whose first
@@ -51,7 +60,10 @@ def screen_block(
     assessed (``window_s``: the windows' length, None when it is not) and the condition model
     confidently calls that very condition on the block's first window, as ``estimate`` keeps a
     trace (:func:`~signatelec.estimation.health.defect_explains`). ``bearing``: its geometry,
-    which places the ball-pass and the defects' lines (default: the seed's)."""
+    which places the ball-pass and the defects' lines (default: the seed's). ``track``: the
+    speed is tracked from the line, and a line elsewhere within
+    :data:`~signatelec.estimation.monitor_settings.TRACK_JUMP` of the speed is the speed
+    moved: found, at the speed it implies."""
     omega, omega_last = omegas
     n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
     r = trace.resistance_ohm[:n]
@@ -59,6 +71,9 @@ def screen_block(
     if model.domain is not None:
         note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
     ripple = find_ripple(r, trace.sample_rate_hz, omega, bearing=bearing)
+    moved = ripple.implied_omega_rad_s
+    if track and ripple.status == "elsewhere" and abs(moved / omega - 1.0) <= TRACK_JUMP:
+        return "found", note if first else None, moved
     if ripple.status == "elsewhere" and not first and trace.resistance_ohm.size >= 2 * n:
         end = trace.resistance_ohm[-n:]
         again = find_ripple(end, trace.sample_rate_hz, omega_last, bearing=bearing)
@@ -78,10 +93,10 @@ def screen_block(
             getattr(model, "bearing", None),
         )  # fmt: skip
     ):
-        return "defect", note if first else None
+        return "defect", note if first else None, None
     if ripple.status in ("elsewhere", "constant"):
         raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
-    return ripple.status, note if first else None
+    return ripple.status, note if first else None, None
 
 
 @functools.cache

@@ -34,6 +34,10 @@ TRACK_MIN_SNR = 25.0
 MAX_GAP_WINDOWS = 1_000_000
 #: Mean cage slip of the training runs (found / kinematic f_bp - 1), for speed tracking.
 TYPICAL_SLIP = -0.001
+#: Largest move of the ball-pass line from the tracked speed's, at a ripple screen, that the
+#: tracked speed follows (a run-up between screens, a step of the drive; further is refused as
+#: a wrong speed): the windows' own search spans +-1 %, a screen's finds the line anywhere.
+TRACK_JUMP = 0.1
 #: Relative change of a block's sample rate from the first block's that the notes report (a
 #: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
 RATE_CHANGE = 0.05
@@ -248,6 +252,16 @@ def screen_speeds(speed: np.ndarray | None, n: int, omega: float) -> tuple[float
     return tuple(w if math.isfinite(w) and w > 0 else omega for w in ends)
 
 
+def followed(at: float, omega: float, found: float) -> str:
+    """The note of the first move of the tracked speed, from ``omega`` to the speed ``found`` by
+    the screen at ``at`` (rad/s)."""
+    return (
+        f"at t = {time_text(at)} s the ball-pass line lies {found / omega - 1.0:+.1%} from the "
+        f"tracked speed's: the speed tracked follows it ({found:.6g} rad/s at the line's "
+        "kinematics; later such moves are not noted)"
+    )
+
+
 def speed_given(settings: MonitorSettings, omega: float, start_s: float, end_s: float, first):
     """How a refusal names the speed ``omega`` of the trace ``start_s``-``end_s``: what the user
     gave (the speed column's median there, the speed tracked from the ball-pass line), or None
@@ -303,9 +317,10 @@ def set_filed(parts: list[pd.DataFrame], start_s: float, values: dict) -> None:
             return
 
 
-def unconfirmed(pending: list[dict], parts: list[pd.DataFrame], since: float) -> None:
+def unconfirmed(pending: list[dict], parts: list[pd.DataFrame], since: float, at: float) -> str:
     """The windows from ``since``, pending (rows) or filed (frames), take the ripple status
-    "unconfirmed", their regime not confident."""
+    "unconfirmed", their regime not confident, when the screen at ``at`` finds the line away
+    from the speed's, or none; the note that says so."""
     for row in pending:
         if row["start_s"] >= since:
             row["ripple"] = "unconfirmed"
@@ -313,10 +328,15 @@ def unconfirmed(pending: list[dict], parts: list[pd.DataFrame], since: float) ->
     for part in reversed(parts):  # batches filed since
         if not len(part) or part["start_s"].max() < since:
             break
-        at = part["start_s"] >= since
-        part.loc[at, "ripple"] = "unconfirmed"
+        rows = part["start_s"] >= since
+        part.loc[rows, "ripple"] = "unconfirmed"
         if "regime_confident" in part:
-            part.loc[at, "regime_confident"] = False
+            part.loc[rows, "regime_confident"] = False
+    return (
+        f"at t = {time_text(at)} s the ball-pass line is not where the speed puts it, or is "
+        "gone: the windows since the last screen that found it, at t = "
+        f"{time_text(since)} s, may have been read at a wrong speed (ripple 'unconfirmed')"
+    )
 
 
 def gap_rows(starts: np.ndarray, window_s: float, gap: tuple, ripple: str) -> pd.DataFrame:
