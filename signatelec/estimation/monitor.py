@@ -63,6 +63,7 @@ from signatelec.estimation.monitor_settings import (
     first_gaps,
     followed,
     gap_rows,
+    in_time_order,
     omega_of,
     screen_speeds,
     set_filed,
@@ -181,36 +182,15 @@ class _Windows:
             pass
 
     def _in_order(self, chunk) -> tuple:
-        """(times, times to cut blocks at, resistances, speeds) of the chunk's rows up to the
-        first whose time does not increase on the times before it: the reading ends there,
-        with a note (TraceError within the first block, which is refused as ``prepare_trace``
-        refuses it). A missing time is cut at the time before it (the block
-        holding it repairs it, or refuses it, as ``estimate`` does): a NaN among the times
-        would make the blocks' bisections meaningless."""
-        t, r, v = chunk.time_s, chunk.resistance_ohm, chunk.speed_rad_s
-        finite = np.isfinite(t)
-        at, rows = t, None  # (rows: those with a time, None when all have)
-        if not finite.all():
-            last = np.maximum.accumulate(np.where(finite, np.arange(t.size), -1))
-            at = np.where(last >= 0, t[np.maximum(last, 0)], self.last_time)
-            rows = np.flatnonzero(finite)
-        timed = t if rows is None else t[rows]
-        if timed.size and self.first_time is None:
-            self.first_time = float(timed[0])
-        back = np.flatnonzero(~(np.diff(timed, prepend=self.last_time) > 0.0))
-        if back.size:
-            i = int(back[0] if rows is None else rows[back[0]])
-            before = self.last_time if back[0] == 0 else float(timed[back[0] - 1])
-            what = (
-                f"time does not increase at row {chunk.first_row + i} (t = {before:.9g} s, "
-                f"then {t[i]:.9g} s)"
-            )
-            if before < self.first_time + self._block_span():  # the first block is refused
-                raise TraceError(f"{self.source}: {what}; sort the trace or remove repeated times")
-            self.table.notes.append(f"{what}: the record is read up to there")
+        """(times, times to cut blocks at, resistances, speeds) of the chunk's rows in time
+        order (:func:`~signatelec.estimation.monitor_settings.in_time_order`): a time that
+        does not increase ends the reading there, with a note."""
+        t, at, r, v, self.first_time, note = in_time_order(
+            chunk, self.last_time, self.first_time, self._block_span(), self.source
+        )
+        if note is not None:
+            self.table.notes.append(note)
             self.ended = True
-            t, at, r = t[:i], at[:i], r[:i]
-            v = None if v is None else v[:i]
         if at.size:
             self.last_time = float(at[-1])
         return t, at, r, v

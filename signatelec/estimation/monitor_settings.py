@@ -306,6 +306,41 @@ def first_gaps(taken: list[tuple]) -> list[tuple]:
     return run
 
 
+def in_time_order(chunk, last_time: float, first_time: float | None, block_span: float, source):
+    """(times, times to cut blocks at, resistances, speeds, first time, note) of the chunk's rows
+    up to the first whose time does not increase on the times before it (``last_time``: the
+    last time read; ``first_time``: the record's first, None before it is read): the reading
+    ends there, with the ``note`` (None: it goes on; TraceError within the record's first
+    block, ``block_span`` long, which is refused as ``prepare_trace`` refuses it). A missing
+    time is cut at the time before it (the block holding it repairs it, or refuses it, as
+    ``estimate`` does): a NaN among the times would make the blocks' bisections meaningless."""
+    t, r, v = chunk.time_s, chunk.resistance_ohm, chunk.speed_rad_s
+    finite = np.isfinite(t)
+    at, rows = t, None  # (rows: those with a time, None when all have)
+    if not finite.all():
+        last = np.maximum.accumulate(np.where(finite, np.arange(t.size), -1))
+        at = np.where(last >= 0, t[np.maximum(last, 0)], last_time)
+        rows = np.flatnonzero(finite)
+    timed = t if rows is None else t[rows]
+    if timed.size and first_time is None:
+        first_time = float(timed[0])
+    back = np.flatnonzero(~(np.diff(timed, prepend=last_time) > 0.0))
+    note = None
+    if back.size:
+        i = int(back[0] if rows is None else rows[back[0]])
+        before = last_time if back[0] == 0 else float(timed[back[0] - 1])
+        what = (
+            f"time does not increase at row {chunk.first_row + i} (t = {before:.9g} s, "
+            f"then {t[i]:.9g} s)"
+        )
+        if before < first_time + block_span:  # the first block is refused
+            raise TraceError(f"{source}: {what}; sort the trace or remove repeated times")
+        note = f"{what}: the record is read up to there"
+        t, at, r = t[:i], at[:i], r[:i]
+        v = None if v is None else v[:i]
+    return t, at, r, v, first_time, note
+
+
 def set_filed(parts: list[pd.DataFrame], start_s: float, values: dict) -> None:
     """Set ``values`` in the row of the window from ``start_s`` among the frames of windows
     filed (``parts``, in time order: searched from the last)."""
