@@ -339,6 +339,40 @@ def test_a_run_up_is_monitored(model_file, tiles, tmp_path, speed):
     assert windows["radial_load_n"].to_numpy() == pytest.approx(5000.0, rel=0.01)
 
 
+@pytest.mark.parametrize("start", ["at rest", "run up from rest"])
+def test_a_record_that_starts_at_rest_is_monitored_once_it_turns(
+    model_file, tiles, tmp_path, start
+):
+    """A speed column at 0 for the first 3 s (a bench started after its logger), or running up
+    from rest to 500 rad/s in 6 s: the record's first screen, which checks the column against
+    the ripple, waits for the first block that turns steadily (within 10 % across it); the
+    blocks before it are refused, each window naming its speed, and the record is monitored
+    from there, F_r within 1 % (the record had been refused whole: "speed 0.0 rad/s", or the
+    smeared line of a run-up's first half second)."""
+    from signatelec.estimation.persistence import load_model
+
+    t, r, _ = _record(tiles, [("low", 16.0)], seed=8)
+    if start == "at rest":  # no ripple while the shaft stands
+        rest = t < 3.0
+        r = np.where(
+            rest, np.mean(r) * (1.0 + NOISE * np.random.default_rng(1).standard_normal(t.size)), r
+        )
+        speed, steady_s = np.where(rest, 0.0, OMEGA), 4.0
+    else:  # the 500 rad/s record's time at each instant: 0.5 a t^2 / omega, then linear
+        run = 6.0
+        phase = np.where(t < run, 0.5 * t**2 / run, t - 0.5 * run)
+        r, speed, steady_s = np.interp(phase, t, r), OMEGA * np.minimum(t / run, 1.0), 6.0
+    path = _write(tmp_path / "rest.parquet", t, r, speed_rad_s=speed)
+    table = monitor_trace(path, load_model(model_file), MonitorSettings(speed_column="speed_rad_s"))
+    windows = table.frame()
+    later = windows[windows["start_s"] >= steady_s]
+    assert (later["status"] == "ok").all() and len(later) == (16.0 - steady_s) / 0.2
+    assert later["radial_load_n"].to_numpy() == pytest.approx(5000.0, rel=0.01)
+    before = windows[windows["end_s"] <= 2.0]
+    assert before["status"].str.startswith("refused").all()
+    assert before["status"].str.contains("speed").all()
+
+
 def test_a_tracked_speed_follows_a_step_at_the_next_screen(model_file, tiles, tmp_path):
     """A drive that steps from 500 to 515 rad/s (3 %) at 15 s, tracked from the ball-pass
     line: the windows' own search (+-1 %) loses the line, the screen at 20 s finds it 3 %

@@ -56,6 +56,7 @@ from signatelec.estimation.monitor_answers import (
 from signatelec.estimation.monitor_settings import (
     MAX_GAP_WINDOWS,
     RATE_CHANGE,
+    STEADY_SPEED,
     TRACK_MIN_SNR,
     TYPICAL_SLIP,
     MonitorSettings,
@@ -403,9 +404,20 @@ class _Windows:
         omega_block = omega_of(self.s, speed, self.tracked) if omega is None else omega
         where = f"{self.source} at t = {time_text(start)} s"
         rows, status, ripple = [], self.s.window_status, "unchecked"
+        ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block)
+        # a speed column at rest, or changing across the record's first block by more than
+        # STEADY_SPEED (its screen checks the column): the record's first block is a later one
+        at_rest = speed is not None and not (math.isfinite(omega_block) and omega_block > 0)
+        steady = ends[0] > 0 and abs(ends[1] / ends[0] - 1.0) <= STEADY_SPEED
+        ramp = speed is not None and self.first and not steady
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
+            if ramp:
+                raise TraceError(
+                    f"{where}: the speed column runs from {ends[0]:g} to {ends[1]:g} rad/s "
+                    "across the block; the record's first screen waits for a steadier speed"
+                )
             trace = prepare_trace(
                 self.t[lo:hi],
                 self.r[lo:hi],
@@ -421,9 +433,11 @@ class _Windows:
             # and the record's last blocks: a speed gone wrong since the last screen is named
             long = trace.duration_s >= SCREEN_S  # (a shorter screen misses lines)
             if self.first or long and (final or start >= self.next_screen_s):
-                ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block)
-                screened = min(start + SCREEN_S, self.at[hi - 1])  # (the first screen's span)
-                given = speed_given(self.s, ends[0], start, screened, self.first)
+                end = self.at[hi - 1]  # (the screen's span, and the speed there, are named)
+                named, span = ends[0], (start, min(start + SCREEN_S, end))
+                if math.isnan(ends[0]):  # the block starts at rest: its end is screened
+                    named, span = ends[1], (max(start, end - SCREEN_S), end)
+                given = speed_given(self.s, named, *span, self.first)
                 window = self.s.window_s if self.s.condition_every_s is not None else None
                 track = self.s.track_speed and speed is None  # (window: a defect's to confirm)
                 try:
@@ -449,10 +463,10 @@ class _Windows:
                     self.table.notes.append(note)
             ripple = self.ripple
         except TraceError as exc:
-            if self.first:
+            if self.first and not (at_rest or ramp):
                 raise
             status, trace = f"refused: {exc}", None
-        self.first = False
+        self.first = self.first and (at_rest or ramp)
         # the windows cut at the block's own rate (a logger's rate may change within a record)
         fs = self.fs if trace is None else trace.sample_rate_hz
         if abs(fs / self.fs - 1.0) > RATE_CHANGE and not self.rate_noted:

@@ -8,6 +8,7 @@ batch of its windows."""
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -50,7 +51,8 @@ def screen_block(
     TraceError naming ``speed``
     (what the user gave for the speed: :func:`~signatelec.estimation.monitor_settings.
     speed_given`). ``omegas``: the speeds of the block's first and last :data:`SCREEN_S`
-    (:func:`~signatelec.estimation.monitor_settings.screen_speeds`). A later block whose first
+    (:func:`~signatelec.estimation.monitor_settings.screen_speeds`; a first one NaN: the block
+    starts at rest, and its last is screened instead). A later block whose first
     :data:`SCREEN_S` shows the line elsewhere has its last :data:`SCREEN_S` screened too, and is
     refused
     only when both do: a change of state within the screened trace joins two ripples whose
@@ -67,6 +69,8 @@ def screen_block(
     omega, omega_last = omegas
     n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
     r = trace.resistance_ohm[:n]
+    if math.isnan(omega):  # the block starts at rest (a speed column's): its end is screened
+        r, omega = trace.resistance_ohm[-n:], omega_last
     note = None
     if model.domain is not None:
         note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)

@@ -38,6 +38,10 @@ TYPICAL_SLIP = -0.001
 #: tracked speed follows (a run-up between screens, a step of the drive; further is refused as
 #: a wrong speed): the windows' own search spans +-1 %, a screen's finds the line anywhere.
 TRACK_JUMP = 0.1
+#: Most change of a speed column's speed across the record's first block, between the medians
+#: of its two screens' spans: its screen, which checks the column against the ripple, needs a
+#: steady speed (a run-up from rest smears the line; 300 to 700 rad/s in a minute is 2.3 %).
+STEADY_SPEED = 0.1
 #: Relative change of a block's sample rate from the first block's that the notes report (a
 #: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
 RATE_CHANGE = 0.05
@@ -245,11 +249,16 @@ def omega_of(settings: MonitorSettings, speed: np.ndarray | None, tracked: float
 def screen_speeds(speed: np.ndarray | None, n: int, omega: float) -> tuple[float, float]:
     """The speeds a block's screens read its first and last ``n`` samples at: a speed column's
     median over each (a run-up's speed differs between a block's ends by more than a screen's
-    tolerance: 300 to 700 rad/s in a minute is 2.3 % a block), else the block's ``omega``."""
+    tolerance: 300 to 700 rad/s in a minute is 2.3 % a block), else the block's ``omega``. A
+    first span at rest (no speed finite and > 0) is NaN when the last is not: the block starts
+    at rest, and its end is screened (:func:`~signatelec.estimation.monitor_answers.
+    screen_block`); a last span at rest takes ``omega``."""
     if speed is None:
         return omega, omega
-    ends = (speed_of(speed[:n]), speed_of(speed[-n:]))
-    return tuple(w if math.isfinite(w) and w > 0 else omega for w in ends)
+    first, last = speed_of(speed[:n]), speed_of(speed[-n:])
+    if not (math.isfinite(last) and last > 0):
+        return (first if math.isfinite(first) and first > 0 else omega), omega
+    return (first if math.isfinite(first) and first > 0 else math.nan), last
 
 
 def followed(at: float, omega: float, found: float) -> str:
