@@ -373,6 +373,33 @@ def test_a_record_that_starts_at_rest_is_monitored_once_it_turns(
     assert before["status"].str.contains("speed").all()
 
 
+def test_a_speed_outside_the_training_range_calls_no_regime_confidently(
+    model_file, tiles, tmp_path
+):
+    """The same state read at twice the speed, 1000 rad/s, beyond the 250-750 rad/s the model
+    learnt: each window, and the estimate of the whole trace, answers, as an extrapolation
+    that calls no regime confidently (a 2000 rad/s record's windows had been called preload
+    at 0.999, the truth zero clearance); at 500 rad/s most of the same windows are confident."""
+    from signatelec.estimation.estimate import estimate
+    from signatelec.estimation.persistence import load_model
+    from signatelec.measurement.traces import prepare_trace
+
+    model = load_model(model_file)
+    assert model.info["ranges"]["omega_rad_s"][1] < 2.0 * OMEGA
+    t, r, _ = _record(tiles, [("low", 4.0)], seed=9)
+    for omega, confident in ((OMEGA, True), (2.0 * OMEGA, False)):
+        n = int(t.size * OMEGA / omega)  # the record run omega / OMEGA times as fast
+        fast = np.interp(t[:n] * omega / OMEGA, t, r)
+        path = _write(tmp_path / f"at{omega:g}.parquet", t[:n], fast)
+        windows = monitor_trace(path, model, MonitorSettings(omega_rad_s=omega)).frame()
+        ok = windows[windows["status"] == "ok"]
+        share = ok["regime_confident"].astype(bool).mean()
+        assert len(ok) >= 9 and (share > 0.5 if confident else share == 0.0)
+        result = estimate(prepare_trace(t[:n], fast, omega), omega, model)
+        assert result["regime_confident"] is confident
+        assert any("outside the training range" in x for x in result["notes"]) is not confident
+
+
 def test_a_tracked_speed_follows_a_step_at_the_next_screen(model_file, tiles, tmp_path):
     """A drive that steps from 500 to 515 rad/s (3 %) at 15 s, tracked from the ball-pass
     line: the windows' own search (+-1 %) loses the line, the screen at 20 s finds it 3 %

@@ -67,7 +67,8 @@ def estimate(
     Returns a flat dict: ``radial_load_n``, ``epsilon``, ``clearance_m`` with ``*_low`` and
     ``*_high`` (interval of nominal ``interval_coverage``), ``regime``,
     ``regime_probability_<regime>`` and ``regime_confident`` (top probability at least
-    :data:`CONFIDENT_PROBABILITY`, and a ball-pass line found), ``in_domain_score``, and notes
+    :data:`CONFIDENT_PROBABILITY`, a ball-pass line found, and a speed within the model's
+    training range), ``in_domain_score``, and notes
     on the trace, the ripple and the model's range; with a condition model, ``condition``,
     ``condition_probability_<name>``, ``condition_confident``, ``spall_length_m`` with
     ``_low`` and ``_high`` and ``condition_in_domain_score``
@@ -204,9 +205,11 @@ def _result(out, notes, trace, feats, ripple, model, omega_rad_s=None) -> dict:
     lo, hi = ranges.get("omega_rad_s", (None, None))
     if omega_rad_s is not None and lo is not None and not lo <= omega_rad_s <= hi:
         notes.append(
-            f"omega {omega_rad_s:g} rad/s is outside the training range {lo:.0f}-{hi:.0f} rad/s: "
-            "extrapolating"
+            f"omega {omega_rad_s:g} rad/s is outside the training range {lo:g}-{hi:g} rad/s: "
+            "extrapolating, so no regime call is confident"
         )
+        if "regime_confident" in out:  # (a 2000 rad/s trace was called preload at 0.999)
+            out["regime_confident"] = False
     out["notes"] = notes
     out["trace"] = {
         "source": trace.source,

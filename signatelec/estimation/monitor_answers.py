@@ -141,6 +141,8 @@ def estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateMo
     if model.domain is not None:
         scores = model.domain.scores(table[:, [column[name] for name in model.domain.features]])
     coverage = model.info.get("coverage", DEFAULT_COVERAGE)
+    # a speed outside the training range is an extrapolation: no regime call is confident there
+    lo, hi = model.info.get("ranges", {}).get("omega_rad_s", (-math.inf, math.inf))
     probs = [c for c in pred if c.startswith("regime_probability_")]
     names, values = list(pred), [v.tolist() for v in pred.values()]
     for i, row in enumerate(rows):
@@ -150,7 +152,8 @@ def estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateMo
         if probs:
             top = max(out[c] for c in probs)
             line = row["ripple"] not in ("none", "unconfirmed")
-            out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and line
+            seen = lo <= row.get("omega_rad_s", math.nan) <= hi
+            out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and line and seen
         limit = refuse_score(row["ripple"] != "none")
         if scores[i] < limit:
             row["status"] = f"out of domain (in-domain score {scores[i]:.2g} < {limit:g})"

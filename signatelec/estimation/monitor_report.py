@@ -109,7 +109,7 @@ def qualify(
         omega = s.get("omega_rad_s")
         if omega is not None and lo is not None and not lo <= omega <= hi:
             warnings.append(
-                f"omega {omega:g} rad/s is outside the training range {lo:.0f}-{hi:.0f} "
+                f"omega {omega:g} rad/s is outside the training range {lo:g}-{hi:g} "
                 "rad/s: extrapolating, the interval does not cover the model's error there"
             )
         score = s.get("in_domain_score")
