@@ -295,6 +295,22 @@ def test_stretch_qualified(ripple, snr, omega, warned):
         assert len(notes) == 1 and warned in notes[0] and notes[0].startswith("stretch 0-20 s")
 
 
+@pytest.mark.parametrize("omega_after", [OMEGA, 1.2 * OMEGA])
+def test_a_change_names_the_speed_that_changed_with_it(omega_after):
+    """A 10 % load step where the speed also steps by 20 % (a speed column's): the change and
+    its alarm say the speed changed too (a speed step alone reads as a change of the features,
+    named as a load change below the thresholds); a speed that stays is not named."""
+    table = _windows(100, 0.2, 0.2, shift_at=50)
+    table.loc[50:, "omega_rad_s"] = omega_after
+    _, changes, alarms = stretches_and_changes(table, 0.2)
+    (change,) = changes
+    (alarm,) = alarms
+    named = f"the speed changed too: {OMEGA:g} -> {omega_after:g} rad/s"
+    assert (named in change["what"]) is (omega_after != OMEGA)
+    assert (named in alarm["what"]) is (omega_after != OMEGA)
+    assert change["what"].startswith("load")
+
+
 def test_signals_deferred_after_the_output_is_written():
     """Ctrl-C after the output is in place does not turn a finished run into exit 130 (it was
     "interrupted" with the new output written); the handler is restored afterwards."""

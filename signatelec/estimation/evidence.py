@@ -59,6 +59,7 @@ from signatelec.estimation.health import (
     stretch_condition,
 )
 from signatelec.estimation.stretch import stretch_estimate
+from signatelec.measurement.traces import SEARCH_REL
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)
@@ -338,9 +339,12 @@ def stretches_and_changes(
         zip(found, stretches[:-1], stretches[1:], strict=True)
     ):
         raised = alarms(before, after, t, p, load_threshold, condition=cond_changed)
+        moved = _speed_moved(before, after)
         for a in raised:
             a["change"] = i  # the change between stretches i and i + 1
+            a["what"] += f"; {moved}" if moved else ""
         what = "; ".join(a["what"] for a in raised) or _described(before, after)
+        what += f"; {moved}" if moved and not raised else ""
         changes.append({"time_s": t, "what": what, "probability": p})
         if gap := _after_gap(t, gaps)[1]:
             changes[-1]["gap_s"] = gap
@@ -400,6 +404,16 @@ def _answered_faulty(
         piece |= {k: v for k, v in answer.items() if not k.startswith("condition")}
         pieces.append(piece | {"load_model": "faulty"})
     return pieces, [(t, p) for t, (_, p) in zip(times, found, strict=True)]
+
+
+def _speed_moved(before: dict, after: dict) -> str | None:
+    """The speed's change between two stretches (their windows' median), when beyond the
+    windows' own search for the ball-pass line (+-1 %), or None: the features, read at
+    another speed, move with it, so what changed there may be the speed alone."""
+    a, b = before.get("omega_rad_s"), after.get("omega_rad_s")
+    if a is None or b is None or not (a > 0 and abs(b / a - 1.0) > SEARCH_REL):
+        return None
+    return f"the speed changed too: {a:.6g} -> {b:.6g} rad/s"
 
 
 def _described(before: dict, after: dict) -> str:
