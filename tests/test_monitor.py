@@ -484,6 +484,8 @@ def test_standard_input_gives_the_file_s_answer(model_file, tiles, tmp_path):
     [
         ("ok", [], "give the speed one way"),
         ("ok", ["--omega", "500", "--speed-column", "v"], "give the speed one way"),
+        ("ok", ["--speed-column", "v", "--track-speed"], "from the column, or is tracked"),
+        ("ok", ["--omega", "500", "--speed-column", "v", "--track-speed"], "give one of them"),
         ("ok", ["--omega", "0"], "must be a finite speed > 0"),
         ("ok", ["--omega", "300"], "expected"),
         ("ok", ["--omega", "500", "--window", "-1"], "--window -1"),

@@ -160,6 +160,11 @@ class MonitorSettings:
         """TraceError (a ValueError: one line naming the option, its value and what is
         allowed) for settings no trace can be monitored with."""
         s = self
+        if s.track_speed and s.speed_column is not None:
+            raise TraceError(
+                f"--track-speed with --speed-column {s.speed_column!r}: the speed comes from the "
+                "column, or is tracked from --omega RAD_S; give one of them"
+            )
         if (s.omega_rad_s is None) == (s.speed_column is None):
             raise TraceError("give the speed one way: --omega RAD_S or --speed-column NAME")
         if s.track_speed and s.omega_rad_s is None:
