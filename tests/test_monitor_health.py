@@ -394,6 +394,29 @@ def test_the_records_last_usable_window_is_assessed(model_file, tile, tmp_path, 
     assert starts == pytest.approx([0.0, 3.0, 6.0, 9.0, last])
 
 
+def test_a_tracked_speed_does_not_follow_a_ball_spalls_line(model_file, tile, tmp_path):
+    """A 3 mm ball spall whose line 2 BSF (10.6 % below the seed's ball pass) outshines the
+    ripple, tracked from an --omega 1 % low: the screen's line is not a move of the speed
+    (beyond the 5 % a tracked speed follows), so the record is refused as a wrong speed, as
+    for --omega alone; it had been followed to 447 rad/s, every window out of domain."""
+    from signatelec.estimation.persistence import load_model
+    from signatelec.measurement.traces import TraceError
+
+    seconds = 12.0
+    pulses = spalled_trace("ball", duration_s=seconds, noise=0.0, pulse_rel=0.04, level=1.0,
+                           length_m=3e-3, width_s=None, phase=None, seed=4)  # fmt: skip
+    healthy = spalled_trace("healthy", duration_s=seconds, noise=0.0, level=1.0)
+    r = _tiled(tile, seconds) * (1.0 + pulses - healthy)
+    r = r * (1.0 + NOISE * np.random.default_rng(4).standard_normal(r.size))
+    path = tmp_path / "ball.parquet"
+    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
+    model = load_model(model_file)
+    for track in (False, True):
+        settings = MonitorSettings(omega_rad_s=0.99 * OMEGA, track_speed=track)
+        with pytest.raises(TraceError, match="the trace's speed is about 44"):
+            monitor_trace(path, model, settings)
+
+
 def test_a_defect_line_is_a_wrong_speed_when_the_condition_is_not_assessed(
     model_file, tile, tmp_path
 ):

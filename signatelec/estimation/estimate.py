@@ -190,7 +190,7 @@ def estimate(
                 f"{CONFIDENT_PROBABILITY:.0%}); these load states give resistance signatures "
                 "alike within this trace's noise, so a longer or quieter trace is needed to tell"
             )
-    return _result(out, notes, trace, feats, ripple, model, omega_rad_s)
+    return _result(out, notes, trace, feats, ripple, model, omega_rad_s, load)
 
 
 def _confident_fault(condition: dict) -> bool:
@@ -199,9 +199,10 @@ def _confident_fault(condition: dict) -> bool:
     return c not in (None, HEALTHY) and bool(condition.get("condition_confident"))
 
 
-def _result(out, notes, trace, feats, ripple, model, omega_rad_s=None) -> dict:
-    """The estimate with its notes, the trace's figures and the model's summary."""
-    ranges = model.info.get("ranges", {})
+def _result(out, notes, trace, feats, ripple, model, omega_rad_s=None, answered=None) -> dict:
+    """The estimate with its notes, the trace's figures and the model's summary; ``omega_rad_s``
+    checked against the training range of the load-state model that ``answered``."""
+    ranges = (answered or model).info.get("ranges", {})
     lo, hi = ranges.get("omega_rad_s", (None, None))
     if omega_rad_s is not None and lo is not None and not lo <= omega_rad_s <= hi:
         notes.append(

@@ -340,11 +340,11 @@ def stretches_and_changes(
     ):
         raised = alarms(before, after, t, p, load_threshold, condition=cond_changed)
         moved = _speed_moved(before, after)
+        what = "; ".join(a["what"] for a in raised) or _described(before, after)
+        what += f"; {moved}" if moved else ""
         for a in raised:
             a["change"] = i  # the change between stretches i and i + 1
             a["what"] += f"; {moved}" if moved else ""
-        what = "; ".join(a["what"] for a in raised) or _described(before, after)
-        what += f"; {moved}" if moved and not raised else ""
         changes.append({"time_s": t, "what": what, "probability": p})
         if gap := _after_gap(t, gaps)[1]:
             changes[-1]["gap_s"] = gap

@@ -405,19 +405,13 @@ class _Windows:
         where = f"{self.source} at t = {time_text(start)} s"
         rows, status, ripple = [], self.s.window_status, "unchecked"
         ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block)
-        # a speed column at rest, or changing across the record's first block by more than
-        # STEADY_SPEED (its screen checks the column): the record's first block is a later one
+        # a speed column at rest, or changing across the block by more than STEADY_SPEED: a
+        # refusal of the record's first block does not refuse the record, the next is first
         at_rest = speed is not None and not (math.isfinite(omega_block) and omega_block > 0)
-        steady = ends[0] > 0 and abs(ends[1] / ends[0] - 1.0) <= STEADY_SPEED
-        ramp = speed is not None and self.first and not steady
+        ramp = speed is not None and ends[0] > 0 and abs(ends[1] / ends[0] - 1.0) > STEADY_SPEED
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
-            if ramp:
-                raise TraceError(
-                    f"{where}: the speed column runs from {ends[0]:g} to {ends[1]:g} rad/s "
-                    "across the block; the record's first screen waits for a steadier speed"
-                )
             trace = prepare_trace(
                 self.t[lo:hi],
                 self.r[lo:hi],
@@ -466,7 +460,7 @@ class _Windows:
             if self.first and not (at_rest or ramp):
                 raise
             status, trace = f"refused: {exc}", None
-        self.first = self.first and (at_rest or ramp)
+        self.first = self.first and trace is None  # (refused at rest or in a ramp)
         # the windows cut at the block's own rate (a logger's rate may change within a record)
         fs = self.fs if trace is None else trace.sample_rate_hz
         if abs(fs / self.fs - 1.0) > RATE_CHANGE and not self.rate_noted:

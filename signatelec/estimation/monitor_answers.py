@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -64,20 +65,21 @@ def screen_block(
     trace (:func:`~signatelec.estimation.health.defect_explains`). ``bearing``: its geometry,
     which places the ball-pass and the defects' lines (default: the seed's). ``track``: the
     speed is tracked from the line, and a line elsewhere within
-    :data:`~signatelec.estimation.monitor_settings.TRACK_JUMP` of the speed is the speed
-    moved: found, at the speed it implies."""
+    :data:`~signatelec.estimation.monitor_settings.TRACK_JUMP` of the speed that is not a
+    defect's (as above) is the speed moved: found, at the speed it implies."""
     omega, omega_last = omegas
     n = min(trace.resistance_ohm.size, int(SCREEN_S * trace.sample_rate_hz))
+    if math.isnan(omega):  # the block starts at rest (a speed column's): its end is screened,
+        # and a defect's line judged on its end's window
+        m = max(n, int(round((window_s or 0.0) * trace.sample_rate_hz)))
+        ends = slice(max(0, trace.resistance_ohm.size - m), None)
+        trace = replace(trace, time_s=trace.time_s[ends], resistance_ohm=trace.resistance_ohm[ends])
+        omega = omega_last
     r = trace.resistance_ohm[:n]
-    if math.isnan(omega):  # the block starts at rest (a speed column's): its end is screened
-        r, omega = trace.resistance_ohm[-n:], omega_last
     note = None
     if model.domain is not None:
         note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
     ripple = find_ripple(r, trace.sample_rate_hz, omega, bearing=bearing)
-    moved = ripple.implied_omega_rad_s
-    if track and ripple.status == "elsewhere" and abs(moved / omega - 1.0) <= TRACK_JUMP:
-        return "found", note if first else None, moved
     if ripple.status == "elsewhere" and not first and trace.resistance_ohm.size >= 2 * n:
         end = trace.resistance_ohm[-n:]
         again = find_ripple(end, trace.sample_rate_hz, omega_last, bearing=bearing)
@@ -98,6 +100,9 @@ def screen_block(
         )  # fmt: skip
     ):
         return "defect", note if first else None, None
+    moved = ripple.implied_omega_rad_s  # (a tracked speed follows a line that is no defect's)
+    if track and ripple.status == "elsewhere" and abs(moved / omega - 1.0) <= TRACK_JUMP:
+        return "found", note if first else None, moved
     if ripple.status in ("elsewhere", "constant"):
         raise TraceError(f"{trace.source}: {ripple.problem(speed)}")
     return ripple.status, note if first else None, None

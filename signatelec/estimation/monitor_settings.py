@@ -36,11 +36,13 @@ MAX_GAP_WINDOWS = 1_000_000
 TYPICAL_SLIP = -0.001
 #: Largest move of the ball-pass line from the tracked speed's, at a ripple screen, that the
 #: tracked speed follows (a run-up between screens, a step of the drive; further is refused as
-#: a wrong speed): the windows' own search spans +-1 %, a screen's finds the line anywhere.
-TRACK_JUMP = 0.1
-#: Most change of a speed column's speed across the record's first block, between the medians
-#: of its two screens' spans: its screen, which checks the column against the ripple, needs a
-#: steady speed (a run-up from rest smears the line; 300 to 700 rad/s in a minute is 2.3 %).
+#: a wrong speed): the windows' own search spans +-1 %, a screen's finds the line anywhere. A
+#: ball spall's line 2 BSF lies 10.6 % below the seed's ball pass: it is not followed.
+TRACK_JUMP = 0.05
+#: Change of a speed column's speed across the record's first block, between the medians of
+#: its two screens' spans, beyond which a failed screen of that block does not refuse the
+#: record: the next block is screened first instead (a run-up from rest smears the line: 0 to
+#: 25 rad/s in the first half second; 300 to 700 rad/s in a minute is 2.3 % a block).
 STEADY_SPEED = 0.1
 #: Relative change of a block's sample rate from the first block's that the notes report (a
 #: jittered clock's blocks differ by ~0.1-1 %; a logger that changes its rate, by a factor).
