@@ -404,11 +404,12 @@ class _Windows:
         omega_block = omega_of(self.s, speed, self.tracked) if omega is None else omega
         where = f"{self.source} at t = {time_text(start)} s"
         rows, status, ripple = [], self.s.window_status, "unchecked"
-        ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block)
         # a speed column at rest, or changing across the block by more than STEADY_SPEED: a
         # refusal of the record's first block does not refuse the record, the next is first
+        ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block) if self.first else None
         at_rest = speed is not None and not (math.isfinite(omega_block) and omega_block > 0)
-        ramp = speed is not None and ends[0] > 0 and abs(ends[1] / ends[0] - 1.0) > STEADY_SPEED
+        ramp = self.first and speed is not None and ends[0] > 0
+        ramp = ramp and abs(ends[1] / ends[0] - 1.0) > STEADY_SPEED
         try:
             if not (math.isfinite(omega_block) and omega_block > 0):
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
@@ -427,6 +428,7 @@ class _Windows:
             # and the record's last blocks: a speed gone wrong since the last screen is named
             long = trace.duration_s >= SCREEN_S  # (a shorter screen misses lines)
             if self.first or long and (final or start >= self.next_screen_s):
+                ends = ends or screen_speeds(speed, int(SCREEN_S * self.fs), omega_block)
                 end = self.at[hi - 1]  # (the screen's span, and the speed there, are named)
                 named, span = ends[0], (start, min(start + SCREEN_S, end))
                 if math.isnan(ends[0]):  # the block starts at rest: its end is screened
