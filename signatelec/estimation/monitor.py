@@ -407,11 +407,12 @@ class _Windows:
         # a speed column at rest, or changing across the block by more than STEADY_SPEED: a
         # refusal of the record's first block does not refuse the record, the next is first
         ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block) if self.first else None
-        at_rest = speed is not None and not (math.isfinite(omega_block) and omega_block > 0)
+        turning = math.isfinite(omega_block) and omega_block > 0
+        at_rest = speed is not None and not turning
         ramp = self.first and speed is not None and ends[0] > 0
         ramp = ramp and abs(ends[1] / ends[0] - 1.0) > STEADY_SPEED
         try:
-            if not (math.isfinite(omega_block) and omega_block > 0):
+            if not turning:
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
             trace = prepare_trace(
                 self.t[lo:hi],
