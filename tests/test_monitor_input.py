@@ -387,6 +387,23 @@ def test_wrong_speed_column_named(tmp_path):
     assert "the trace's speed is about 500 rad/s" in message
 
 
+@pytest.mark.parametrize(
+    ("unit", "settings"),
+    [("Hz", {"omega_rad_s": OMEGA / (2 * math.pi)}), ("rpm", {"speed_column": "speed"})],
+)
+def test_a_speed_in_another_unit_is_named(tmp_path, unit, settings):
+    """A speed given in Hz (--omega) or a speed column in rpm, read as rad/s: the ripple lies
+    2 pi times above, or 60 / (2 pi) times below, the line expected, beyond the wide search.
+    The refusal names the unit and the speed in rad/s (it had answered, warned that no line
+    was found)."""
+    rpm = OMEGA * 60 / (2 * math.pi)
+    path = _trace(tmp_path / "unit.parquet", fs=100000.0, speed=np.full(100000, rpm))
+    message = _refused(path, **settings)
+    assert "the trace's speed is about 500 rad/s" in message
+    given = OMEGA / (2 * math.pi) if unit == "Hz" else rpm
+    assert f"was the speed given in {unit}? ({given:g} {unit} is 500 rad/s)" in message
+
+
 def test_window_longer_than_the_training_windows_not_confident():
     """3 s windows (the training windows are at most 0.2 s, so harmonic_snr and
     duration_ball_passes, which grow with the length, lie beyond what the model saw): answered,

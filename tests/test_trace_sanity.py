@@ -83,6 +83,42 @@ def test_wrong_omega_refused(model_file, capsys, factor):
     assert implied == pytest.approx(500.0, rel=0.005)
 
 
+def test_speed_in_hz_or_rpm_named(model_file, tmp_path, capsys):
+    """A speed given in Hz or rpm for rad/s: the ripple lies 2 pi times above, or 60 / (2 pi)
+    times below, the line expected, beyond the wide band (the rpm line's third harmonic inside
+    it). Refused, naming the unit and the speed in rad/s, where both had been answered with a
+    warning that no line was found; at a rate too low for the speed read as rad/s, the
+    refusal asks whether it is in rpm. The line is found at its kinematic frequency within the
+    tolerance of a right --omega."""
+    hz, rpm = 500.0 / (2 * math.pi), 500.0 * 60 / (2 * math.pi)
+    code, _, err = _estimate(capsys, EXAMPLE, hz, model_file)
+    line = _refused(code, err, f"was the speed given in Hz? ({hz:g} Hz is 500 rad/s)")
+    implied = float(re.search(r"speed is about (\d+) rad/s", line).group(1))
+    assert implied == pytest.approx(500.0, rel=0.005)
+    code, _, err = _estimate(capsys, EXAMPLE, rpm, model_file)
+    _refused(code, err, "below the 6.7", f"was the speed given in rpm? ({rpm:g} rpm is 500 rad/s)")
+    # the example's ripple (409.5 Hz) at 100 kHz: the rate rpm asks
+    t = np.arange(10000) / 1e5
+    r = np.interp(
+        t, _example()["time_s"] - _example()["time_s"].iloc[0], _example()["resistance_ohm"]
+    )
+    code, _, err = _estimate(capsys, _write(tmp_path, "fast", r, time_s=t), rpm, model_file)
+    line = _refused(code, err, f"was the speed given in rpm? ({rpm:g} rpm is 500 rad/s)")
+    assert float(re.search(r"speed is about (\d+) rad/s", line).group(1)) == pytest.approx(
+        500.0, rel=0.005
+    )
+
+
+def test_no_line_at_the_speed_given_is_not_read_in_another_unit():
+    """A trace without a line at the speed given is read in Hz and rpm with a stricter
+    false-alarm probability (UNIT_FALSE_ALARM): on white noise, none is refused as a speed in
+    another unit."""
+    rng = np.random.default_rng(13)
+    for _ in range(300):
+        x = 2.5e-3 * (1 + 0.002 * rng.standard_normal(4000))
+        assert R.find_ripple(x, 100000.0, rng.uniform(250.0, 750.0)).unit is None
+
+
 @pytest.mark.parametrize("factor", [0.998, 1.002])
 def test_speed_within_tolerance_accepted(model_file, capsys, factor):
     """A tachometer 0.2 % off is within the slip the model knows: the same answer."""

@@ -79,10 +79,10 @@ def screen_block(
     note = None
     if model.domain is not None:
         note = check_level(float(np.mean(r)), model.domain.level_range_ohm, trace.source)
-    ripple = find_ripple(r, trace.sample_rate_hz, omega, bearing=bearing)
+    ripple = find_ripple(r, trace.sample_rate_hz, omega, bearing=bearing, units=first)
     if ripple.status == "elsewhere" and not first and trace.resistance_ohm.size >= 2 * n:
         end = trace.resistance_ohm[-n:]
-        again = find_ripple(end, trace.sample_rate_hz, omega_last, bearing=bearing)
+        again = find_ripple(end, trace.sample_rate_hz, omega_last, bearing=bearing, units=False)
         if again.status not in ("elsewhere", "constant"):
             ripple = again
     if (

@@ -29,7 +29,8 @@ Refused:
   ``MAX_OPEN_FRACTION``;
 - a median resistance below ``MIN_LEVEL_OHM`` (a column in another unit);
 - a trace shorter than ``MIN_BALL_PASSES`` ball passes at the given omega, or sampled below
-  :func:`minimum_sample_rate_hz` (the harmonics would alias);
+  :func:`minimum_sample_rate_hz` (the harmonics would alias); the refusal asks whether the
+  speed was given in Hz or rpm (:data:`SPEED_UNITS`) when read so it would pass;
 - omega not a finite speed > 0.
 """
 
@@ -70,6 +71,22 @@ def minimum_sample_rate_hz(
         * expected_ball_pass_hz(omega_rad_s, bearing)
         * (1.0 + SEARCH_REL)
     )
+
+
+#: Units a speed is given in by mistake, for rad/s: their size in rad/s.
+SPEED_UNITS = {"Hz": 2.0 * math.pi, "rpm": 2.0 * math.pi / 60.0}
+
+
+def unit_hint(omega_rad_s: float, passes) -> str:
+    """A question naming the first unit of :data:`SPEED_UNITS` the speed would pass a check
+    in (``passes(omega_rad_s)`` true), for a refusal: '' if none."""
+    for unit, rad_s in SPEED_UNITS.items():
+        if passes(omega_rad_s * rad_s):
+            return (
+                f"; was the speed given in {unit}? ({omega_rad_s:g} {unit} is "
+                f"{omega_rad_s * rad_s:.4g} rad/s)"
+            )
+    return ""
 
 
 #: Shortest trace, in ball passes (the harmonics need a few periods to stand out of the noise).
@@ -325,9 +342,11 @@ def prepare_trace(
     # before the gaps: at a speed too high for the rate every step is a gap of the ripple
     fs_min = minimum_sample_rate_hz(omega_rad_s, bearing=bearing)
     if fs < fs_min:
+        hint = unit_hint(omega_rad_s, lambda om: fs >= minimum_sample_rate_hz(om, bearing=bearing))
         raise TraceError(
             f"{where}: sampled at {fs:.6g} Hz, below the {fs_min:.4g} Hz needed at "
-            f"{omega_rad_s:g} rad/s (the ball-pass harmonics the estimate reads would alias)"
+            f"{omega_rad_s:g} rad/s (the ball-pass harmonics the estimate reads would "
+            f"alias){hint}"
         )
 
     # every sample a resistance in range (nearly every block of a record): the extremes say so
@@ -407,10 +426,17 @@ def prepare_trace(
     duration = r.size / fs
     passes = duration * f_bp
     if passes < min_ball_passes:
+        hint = unit_hint(
+            omega_rad_s,
+            lambda om: (
+                duration * expected_ball_pass_hz(om, bearing) >= min_ball_passes
+                and fs >= minimum_sample_rate_hz(om, bearing=bearing)
+            ),
+        )
         raise TraceError(
             f"{where}: too short: {duration * 1e3:.3g} ms is {passes:.2g} ball passes at "
             f"{omega_rad_s:g} rad/s; at least {min_ball_passes:g} "
-            f"({min_ball_passes / f_bp * 1e3:.3g} ms) are needed"
+            f"({min_ball_passes / f_bp * 1e3:.3g} ms) are needed{hint}"
         )
     # the median is below the floor only if at least half the samples are (a count is cheaper
     # than a median of a long block; the median itself is taken for the message)
