@@ -536,6 +536,50 @@ def test_estimate_parquet_and_columns(small_model, tmp_path, capsys):
     assert len(res) == 1 and {"radial_load_n", "epsilon_high", "regime"} <= set(res.columns)
 
 
+def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
+    """The trace ``df`` (time_s in seconds) as spreadsheets and loggers write it: separated by
+    semicolons or tabs with decimal commas (a European locale's export), its time as Parquet
+    timestamps (without a zone, in Paris time, as elapsed durations) or as ISO 8601 text."""
+    stamps = pd.Timestamp("2026-11-24 10:00:00") + pd.to_timedelta(
+        np.round(df["time_s"].to_numpy() * 1e9).astype(np.int64), unit="ns"
+    )
+    paths = {}
+    for name, sep in (("semicolons.csv", ";"), ("tabs.tsv", "\t")):
+        df.to_csv(tmp / name, sep=sep, decimal=",", index=False)
+        paths[name] = tmp / name
+    for name, time in (
+        ("stamps.parquet", stamps),
+        ("paris.parquet", stamps.tz_localize("Europe/Paris")),
+        ("elapsed.parquet", stamps - stamps[0]),
+    ):
+        df.assign(time_s=time).to_parquet(tmp / name)
+        paths[name] = tmp / name
+    df.assign(time_s=stamps.strftime("%Y-%m-%dT%H:%M:%S.%fZ")).to_csv(tmp / "iso.csv", index=False)
+    paths["iso.csv"] = tmp / "iso.csv"
+    return paths
+
+
+def test_estimate_reads_spreadsheet_and_logger_formats(small_model, tmp_path, capsys):
+    """The example written with decimal commas, or with timestamps for its time, gives the
+    example's estimate (to 1e-6 from timestamps, whose seconds since 1970 are rounded to
+    2.4e-7 s as doubles; the decimal commas had been refused as text in the
+    time column; a Parquet timestamp had been read as nanoseconds for seconds, "sampled at
+    2e-05 Hz"); a timestamp column with a cell that is no timestamp is refused naming it."""
+    args = ["--omega", "500", "--model", str(small_model), "--quiet"]
+    answers = {}
+    for name, path in {"example": EXAMPLE, **_formats(_example(), tmp_path)}.items():
+        out = tmp_path / f"{name}.json"
+        assert _run(["estimate", str(path), *args, "--out", str(out)]) == 0, capsys.readouterr()
+        answers[name] = json.loads(out.read_text())["radial_load_n"]
+    assert answers == pytest.approx(dict.fromkeys(answers, answers["example"]), rel=1e-6)
+    bad = pd.read_csv(tmp_path / "iso.csv")
+    bad.loc[700, "time_s"] = "soon"
+    bad.to_csv(tmp_path / "bad.csv", index=False)
+    assert _run(["estimate", str(tmp_path / "bad.csv"), *args]) == 2
+    err = capsys.readouterr().err
+    assert "column 'time_s' holds text at row 700 ('soon'); seconds or ISO 8601" in err
+
+
 def test_estimate_repairs(small_model, tmp_path, capsys):
     """Isolated NaN and open-circuit samples, a short gap and jittered times are repaired."""
     df = _example()

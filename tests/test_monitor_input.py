@@ -51,6 +51,26 @@ def _refused(path, **settings) -> str:
     return message
 
 
+def test_spreadsheet_and_logger_formats_read_in_chunks(tmp_path):
+    """A record read in chunks whatever the way its numbers and times are written (decimal
+    commas, Parquet timestamps with or without a zone, durations, ISO 8601 text): the same
+    resistances, and times the seconds of its clock (timestamps since 1970 UTC)."""
+    from tests.test_estimate import _formats
+
+    t = np.arange(5000) / FS
+    r = 3e-3 * (1 + 0.01 * np.cos(2 * np.pi * expected_ball_pass_hz(OMEGA) * t))
+    origin = pd.Timestamp("2026-11-24 10:00:00", tz="UTC").timestamp()
+    for name, path in _formats(pd.DataFrame({"time_s": t, "resistance_ohm": r}), tmp_path).items():
+        chunks = list(read_chunks(path, chunk_rows=2000))
+        assert len(chunks) > 1, name
+        got = np.concatenate([c.time_s for c in chunks])
+        start = {"semicolons.csv": 0.0, "tabs.tsv": 0.0, "elapsed.parquet": 0.0}.get(
+            name, origin - (3600.0 if name == "paris.parquet" else 0.0)
+        )
+        np.testing.assert_allclose(got - start, t, rtol=0, atol=1e-6, err_msg=name)
+        np.testing.assert_array_equal(np.concatenate([c.resistance_ohm for c in chunks]), r)
+
+
 def test_binary_file_given_as_csv(tmp_path):
     """Bytes that are no text: one line (was a UnicodeDecodeError traceback from pandas)."""
     path = tmp_path / "noise.csv"

@@ -37,7 +37,6 @@ time gathering one), until the end of the stream. A file named ``-`` is read as 
 
 from __future__ import annotations
 
-import csv
 import io
 import math
 import sys
@@ -52,6 +51,7 @@ from signatelec.measurement.traces import (
     JITTER_TOLERANCE,
     TraceError,
     check_columns,
+    csv_dialect,
     header_names,
     numeric_column,
 )
@@ -99,7 +99,7 @@ def _columns(time_column, resistance_column, speed_column) -> list[str]:
 
 
 def _chunk(df, names, where, first_row) -> Chunk:
-    values = [numeric_column(df[c], c, where, first_row) for c in names]
+    values = [numeric_column(df[c], c, where, first_row, clock=c == names[0]) for c in names]
     return Chunk(values[0], values[1], values[2] if len(values) > 2 else None, first_row)
 
 
@@ -248,14 +248,6 @@ def _first(exc: BaseException) -> str:
     return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
 
 
-def _separator(head: bytes) -> str:
-    lines = [x for x in head.decode("utf-8", "replace").splitlines() if not x.startswith("#")]
-    try:
-        return csv.Sniffer().sniff("\n".join(lines[:20]), delimiters=",;\t ").delimiter
-    except csv.Error:
-        return ","
-
-
 def _header(fh, follow: bool, poll_s: float, where: str, idle_s: float | None = None) -> bytes:
     """The first complete line that is neither blank nor a comment (waiting for it when
     following a file being written, at most ``idle_s`` without growth)."""
@@ -311,10 +303,10 @@ def _open(path, where):
         raise TraceError(f"{where}: cannot be read ({exc.strerror or _first(exc)})") from None
 
 
-def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
-    """(header line, separator) of a CSV file or stream, its columns checked; ``fh`` left
-    after the header (the separator sniffed from the header and the lines after it, those of
-    a stream as far as they have arrived)."""
+def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, tuple[str, str]]:
+    """(header line, (separator, decimal mark)) of a CSV file or stream, its columns checked;
+    ``fh`` left after the header (the dialect read from the header and the lines after it,
+    those of a stream as far as they have arrived)."""
 
     header = _header(fh, follow, poll_s, where, idle_s)
     if fh.seekable():
@@ -326,19 +318,20 @@ def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, str]:
     return header, _checked_header(header, after, names, where)
 
 
-def _checked_header(header: bytes, after: bytes, names, where) -> str:
-    """The separator of a CSV header line (sniffed from it and ``after``, the bytes that
+def _checked_header(header: bytes, after: bytes, names, where) -> tuple[str, str]:
+    """The separator and decimal mark of a CSV header line
+    (:func:`~signatelec.measurement.traces.csv_dialect` of it and ``after``, the bytes that
     follow it), its columns checked."""
     import pandas as pd
 
-    sep = _separator(header + after)
+    sep, decimal = csv_dialect(header + after)
     try:
         columns = header_names(io.BytesIO(header), sep=sep)
     except (ValueError, pd.errors.ParserError) as exc:
         # UnicodeDecodeError is a ValueError: a binary file given as CSV
         raise TraceError(f"{where}: cannot be read as csv (header line: {_first(exc)})") from None
     check_columns(columns, names, where)
-    return sep
+    return sep, decimal
 
 
 def _peeked_header(names, where) -> None:
@@ -405,7 +398,7 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
     import pandas as pd
 
     block_bytes = 40 * chunk_rows  # ~40 bytes per line of three numbers
-    header, sep = _csv_header(fh, names, where, follow, poll_s, idle_s)
+    header, (sep, decimal) = _csv_header(fh, names, where, follow, poll_s, idle_s)
     row, pending, idle_since = 0, b"", time.monotonic()
     while True:
         data = _block(fh, block_bytes)
@@ -427,7 +420,13 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
             time.sleep(poll_s)
             continue
         try:
-            df = pd.read_csv(io.BytesIO(header + data), sep=sep, comment="#", usecols=list(names))
+            df = pd.read_csv(
+                io.BytesIO(header + data),
+                sep=sep,
+                decimal=decimal,
+                comment="#",
+                usecols=list(names),
+            )
         except (ValueError, pd.errors.ParserError) as exc:
             raise TraceError(
                 f"{where}: cannot be read as csv near row {row} ({_first(exc)})"

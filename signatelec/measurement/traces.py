@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
@@ -176,11 +177,80 @@ def header_names(source, **read_csv) -> list[str]:
     return [str(c) for c in row.iloc[0]] if len(row) else []
 
 
-def numeric_column(raw, column: str, where: str, first_row: int = 0) -> np.ndarray:
-    """A column as floats: empty cells and "nan" become NaN (missing samples, repaired or
-    refused later), other text is refused naming its row (counted from ``first_row``)."""
+#: A number written with a decimal comma (a spreadsheet's export in a European locale).
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?(\d+,\d*|,\d+)([eE][-+]?\d+)?\s*$")
+
+
+def csv_dialect(head: bytes) -> tuple[str, str]:
+    """(separator, decimal mark) of a CSV file from its first bytes: the separator sniffed
+    among ``, ; tab space`` from its first 20 lines that are not comments (``,`` when the
+    sniffer finds none); the decimal mark ``,`` when the separator is not one and a cell of
+    those lines is a number written with a decimal comma (``0,0025;...``, a spreadsheet's
+    export in a European locale), else ``.``."""
+    lines = [x for x in head.decode("utf-8", "replace").splitlines() if not x.startswith("#")]
+    lines = lines[:20]
+    try:
+        sep = csv.Sniffer().sniff("\n".join(lines), delimiters=",;\t ").delimiter
+    except csv.Error:
+        sep = ","
+    comma = sep != "," and any(
+        _DECIMAL_COMMA.match(cell) for line in lines[1:] for cell in line.split(sep)
+    )
+    return sep, "," if comma else "."
+
+
+def _seconds(raw, column: str, where: str, first_row: int) -> np.ndarray | None:
+    """A time column of timestamps or durations as seconds, or None when it holds numbers:
+    datetime64 (a Parquet timestamp, tz-aware or not) and ISO 8601 text as seconds since
+    1970-01-01 UTC (a time without zone read as UTC), timedelta64 as seconds; missing -> NaN.
+    Text that is neither a number nor a timestamp is refused naming its row."""
     import pandas as pd
 
+    kind = raw.dtype
+    if pd.api.types.is_timedelta64_dtype(kind):
+        return raw.dt.total_seconds().to_numpy(dtype=float)
+    if not pd.api.types.is_datetime64_any_dtype(kind):
+        if not (pd.api.types.is_object_dtype(kind) or pd.api.types.is_string_dtype(kind)):
+            return None
+        cells = raw.dropna().astype(str).str.strip()
+        cells = cells[~cells.str.lower().isin(("nan", ""))]
+        try:
+            float(cells.iloc[0]) if len(cells) else 0.0
+            return None  # numbers (or text refused as such)
+        except ValueError:
+            pass
+        stamps = pd.to_datetime(raw, format="ISO8601", utc=True, errors="coerce")
+        if stamps.isna().all():
+            return None
+        bad = stamps.isna() & raw.notna()
+        bad &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
+            raise TraceError(
+                f"{where}: column {column!r} holds text at row {first_row + row} "
+                f"({str(raw.iloc[row])[:20]!r}); seconds or ISO 8601 timestamps only (as in "
+                "its first rows; empty or nan for a missing sample)"
+            )
+        raw = stamps
+    if isinstance(raw.dtype, pd.DatetimeTZDtype):
+        raw = raw.dt.tz_convert("UTC").dt.tz_localize(None)
+    ns = raw.to_numpy("datetime64[ns]")
+    out = ns.astype(np.int64) / 1e9
+    out[np.isnat(ns)] = np.nan
+    return out
+
+
+def numeric_column(
+    raw, column: str, where: str, first_row: int = 0, clock: bool = False
+) -> np.ndarray:
+    """A column as floats: empty cells and "nan" become NaN (missing samples, repaired or
+    refused later), other text is refused naming its row (counted from ``first_row``).
+    ``clock``: the time column, whose timestamps or durations are read as seconds
+    (:func:`_seconds`)."""
+    import pandas as pd
+
+    if clock and (seconds := _seconds(raw, column, where, first_row)) is not None:
+        return seconds
     try:
         number = pd.to_numeric(raw, errors="coerce")
     except OverflowError:  # an integer cell beyond the float range, read as a Python int
@@ -217,7 +287,9 @@ def read_trace(
         if suffix in (".parquet", ".pq"):
             df = pd.read_parquet(p)
         elif suffix in (".csv", ".txt", ".tsv"):
-            df = pd.read_csv(p, sep=None, engine="python", comment="#")
+            with open(p, "rb") as fh:
+                sep, decimal = csv_dialect(fh.read(1 << 16))
+            df = pd.read_csv(p, sep=sep, decimal=decimal, comment="#")
         else:
             raise TraceError(
                 f"{where}: unknown format {suffix or '(none)'!r}; give .csv or .parquet"
@@ -232,8 +304,8 @@ def read_trace(
     if suffix in (".parquet", ".pq"):
         check_columns(df.columns, wanted, where)
     else:
-        check_columns(header_names(p, sep=None, engine="python", comment="#"), wanted, where)
-    values = [numeric_column(df[c], c, where) for c in wanted]
+        check_columns(header_names(p, sep=sep, comment="#"), wanted, where)
+    values = [numeric_column(df[c], c, where, clock=c == time_column) for c in wanted]
     phase = df[phase_column].astype(str).to_numpy() if phase_column in df.columns else None
     return TraceColumns(values[0], values[1], phase)
 
