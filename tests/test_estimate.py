@@ -577,7 +577,9 @@ def test_estimate_reads_spreadsheet_and_logger_formats(small_model, tmp_path, ca
     bad.to_csv(tmp_path / "bad.csv", index=False)
     assert _run(["estimate", str(tmp_path / "bad.csv"), *args]) == 2
     err = capsys.readouterr().err
-    assert "column 'time_s' holds text at row 700 ('soon'); seconds or ISO 8601" in err
+    assert (
+        "column 'time_s' holds text at row 700 ('soon'); seconds or ISO 8601 timestamps only" in err
+    )
 
 
 def test_estimate_repairs(small_model, tmp_path, capsys):

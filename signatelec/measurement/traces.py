@@ -199,6 +199,20 @@ def csv_dialect(head: bytes) -> tuple[str, str]:
     return sep, "," if comma else "."
 
 
+def _refuse_text(raw, read, column: str, where: str, first_row: int, allowed: str) -> None:
+    """TraceError naming the first cell of ``raw`` that ``read`` (its reading, NaN or NaT
+    where it failed) could not read and that is neither empty nor "nan"."""
+    text = read.isna() & raw.notna()
+    if text.any():
+        text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
+    if text.any():
+        row = int(np.flatnonzero(text.to_numpy())[0])
+        raise TraceError(
+            f"{where}: column {column!r} holds text at row {first_row + row} "
+            f"({str(raw.iloc[row])[:20]!r}); {allowed} only (empty or nan for a missing sample)"
+        )
+
+
 def _seconds(raw, column: str, where: str, first_row: int) -> np.ndarray | None:
     """A time column of timestamps or durations as seconds, or None when it holds numbers:
     datetime64 (a Parquet timestamp, tz-aware or not) and ISO 8601 text as seconds since
@@ -222,15 +236,7 @@ def _seconds(raw, column: str, where: str, first_row: int) -> np.ndarray | None:
         stamps = pd.to_datetime(raw, format="ISO8601", utc=True, errors="coerce")
         if stamps.isna().all():
             return None
-        bad = stamps.isna() & raw.notna()
-        bad &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
-        if bad.any():
-            row = int(np.flatnonzero(bad.to_numpy())[0])
-            raise TraceError(
-                f"{where}: column {column!r} holds text at row {first_row + row} "
-                f"({str(raw.iloc[row])[:20]!r}); seconds or ISO 8601 timestamps only (as in "
-                "its first rows; empty or nan for a missing sample)"
-            )
+        _refuse_text(raw, stamps, column, where, first_row, "seconds or ISO 8601 timestamps")
         raw = stamps
     if isinstance(raw.dtype, pd.DatetimeTZDtype):
         raw = raw.dt.tz_convert("UTC").dt.tz_localize(None)
@@ -255,15 +261,7 @@ def numeric_column(
         number = pd.to_numeric(raw, errors="coerce")
     except OverflowError:  # an integer cell beyond the float range, read as a Python int
         number = pd.to_numeric(raw.astype(str), errors="coerce")  # +-inf, as "1e400" is
-    text = number.isna() & raw.notna()
-    if text.any():
-        text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
-    if text.any():
-        row = int(np.flatnonzero(text.to_numpy())[0])
-        raise TraceError(
-            f"{where}: column {column!r} holds text at row {first_row + row} "
-            f"({str(raw.iloc[row])[:20]!r}); numbers only (empty or nan for a missing sample)"
-        )
+    _refuse_text(raw, number, column, where, first_row, "numbers")
     return number.to_numpy(dtype=float)
 
 
