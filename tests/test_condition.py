@@ -349,6 +349,78 @@ def test_estimate_reports_under_a_stated_prior(model_file, tmp_path, capsys):
     assert "--healthy-prior 1.5: must be a probability of healthy in (0, 1)" in err[0]
 
 
+def test_a_healthy_call_outside_the_training_speeds_is_not_confident(model_file, tmp_path):
+    """A condition model whose training speeds exclude the trace's warns that its call is an
+    extrapolation, and a healthy call there is not confident however probable: outside its
+    speeds the default model's confident healthy calls missed short spalls (README, Diagnosis).
+    The same trace within the range: confident, no warning."""
+    from signatelec.estimation.persistence import load_model, save_model
+
+    rng = np.random.default_rng(21)
+    r, ex = _example_with("healthy", rng, 0.05)
+    src = tmp_path / "trace.csv"
+    pd.DataFrame({"time_s": ex["time_s"], "resistance_ohm": r}).to_csv(src, index=False)
+    model = load_model(model_file)
+    res = {}
+    for name, speeds in (("inside", [450.0, 550.0]), ("outside", [600.0, 700.0])):
+        model.condition.info["ranges"] = {"omega_rad_s": speeds}
+        save_model(model, tmp_path / f"{name}.model")
+        out = tmp_path / f"{name}.json"
+        args = ["estimate", str(src), "--omega", "500", "--model", str(tmp_path / f"{name}.model")]
+        assert _run([*args, "--out", str(out), "--quiet"]) == 0
+        res[name] = json.loads(out.read_text())
+    assert res["inside"]["condition"] == res["outside"]["condition"] == "healthy"
+    assert res["inside"]["condition_probability_healthy"] >= 0.8
+    assert res["inside"]["condition_confident"] is True
+    assert not any("training range 450" in n for n in res["inside"]["notes"])
+    assert res["outside"]["condition_confident"] is False
+    assert (
+        "warning: condition: omega 500 rad/s is outside the condition model's training range "
+        "600-700 rad/s: extrapolating; a healthy call there is not confident"
+    ) in "\n".join(res["outside"]["notes"])
+
+
+@pytest.mark.parametrize("omega", [150.0, 1000.0])
+def test_a_spall_outside_the_training_speeds_is_found_with_a_warning(omega):
+    """The default condition model (300-700 rad/s) on quasi-static traces of 2 mm spalls at
+    150 and 1000 rad/s, 0.2 % noise: the spall's line moves with the speed (BPFO, BPFI) and the
+    model calls it confidently, with a warning that the speed is beyond its training; the
+    healthy trace is not called confidently."""
+    import warnings
+
+    from signatelec.estimation.estimate import estimate
+    from signatelec.estimation.persistence import default_model
+    from signatelec.measurement.traces import prepare_trace
+
+    model = default_model()
+    rng = np.random.default_rng(1)
+    duration = 0.6 if omega < 300.0 else 0.2
+    for kind in ("outer", "inner", "healthy"):
+        spall = {"location": kind, "length_m": 2e-3, "depth_m": 5e-5, "angle_rad": 0.0}
+        scene = Scene.from_dict({"defects": [spall] if kind != "healthy" else []})
+        scene = scene.with_overrides(fidelity="quasistatic", omega_rad_s=omega, duration_s=duration)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            clean = _steady(scene)
+        r = clean * (1 + 0.002 * rng.standard_normal(clean.size))
+        out = estimate(prepare_trace(np.arange(r.size) / 20000.0, r, omega), omega, model)
+        warned = [n for n in out["notes"] if "outside the condition model's training range" in n]
+        assert len(warned) == 1, out["notes"]
+        if kind == "healthy":
+            assert out["condition_confident"] is False
+        else:
+            assert out["condition"] == kind and out["condition_confident"] is True, out
+
+
+def _steady(scene: Scene) -> np.ndarray:
+    """The steady resistance of ``scene`` at 20 kHz."""
+    from signatelec.engines.simulate import simulate
+
+    return (
+        simulate(scene.with_overrides(sample_rate_hz=20000.0)).steady()["resistance_ohm"].to_numpy()
+    )
+
+
 def test_a_defect_line_without_the_defect_is_a_wrong_speed(model_file, tmp_path, capsys):
     """A line on BPFI that the condition model does not call confidently is refused as the
     sanity layer says (a wrong --omega), exit 2."""

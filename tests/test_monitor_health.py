@@ -231,6 +231,44 @@ def test_the_command_reports_the_condition(model_file, tile, tmp_path, capsys):
     assert (out / "monitor.png").stat().st_size > 0
 
 
+def test_a_condition_called_outside_its_training_speeds_is_warned_apart(
+    model_file, tile, tmp_path, capsys
+):
+    """A condition model whose training speeds exclude the record's: each stretch's condition
+    carries a warning of its own (``condition_warnings``, a note, "extrapolated" in the printed
+    line; a healthy call is not confident there, README, Diagnosis), and the load state's
+    warnings and confidence are those of the same record within the range."""
+    from signatelec.estimation.persistence import load_model, save_model
+
+    model = load_model(model_file)
+    runs = {}
+    for name, speeds in (("inside", [450.0, 550.0]), ("outside", [600.0, 700.0])):
+        model.condition.info["ranges"] = {"omega_rad_s": speeds}
+        save_model(model, tmp_path / f"{name}.model")
+        (tmp_path / name).mkdir()
+        runs[name] = _command(
+            _record(tile, [("healthy", 20.0), ("inner", 20.0)], tmp_path / name / "r.parquet", 9),
+            tmp_path / f"{name}.model",
+            capsys,
+        )
+    inside, outside = (runs[n][0]["stretches"] for n in ("inside", "outside"))
+    assert [s["condition"] for s in outside] == ["healthy", "inner"]
+    assert all(s["condition_warnings"] == [] for s in inside)
+    healthy, inner = (s["condition_warnings"] for s in outside)
+    assert healthy == [
+        "condition: omega 500 rad/s is outside the condition model's training range 600-700 "
+        "rad/s: extrapolating; a healthy call there is not confident (a short spall may be "
+        "missed)"
+    ]
+    assert inner == [healthy[0].split(";")[0]]
+    assert outside[0]["condition_omega_rad_s"] == pytest.approx(OMEGA)
+    for a, b in zip(inside, outside, strict=True):
+        assert (a["warnings"], a["regime_confident"]) == (b["warnings"], b["regime_confident"])
+    notes = runs["outside"][0]["notes"]
+    assert sum("outside the condition model's training range" in n for n in notes) == 2
+    assert runs["outside"][1].count("extrapolated") == 2 and "extrapolated" not in runs["inside"][1]
+
+
 def test_a_stated_prior_moves_the_reported_probabilities_only(model_file, tile, tmp_path):
     """--healthy-prior P: each window's condition odds are the training mix's (a third each
     here) times the ratio of the priors (Bayes' rule), the faults sharing 1 - P in the training

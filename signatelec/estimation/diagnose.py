@@ -13,7 +13,9 @@ one:
   :data:`~signatelec.estimation.domain.REFUSE_SCORE`) are not assessed; below
   :data:`~signatelec.estimation.domain.WARN_SCORE` the answer carries a warning;
 - a top probability below :data:`CONFIDENT_CONDITION` is reported as uncertain, its rivals
-  named.
+  named;
+- a speed outside the condition model's training range is an extrapolation, said in a
+  warning, and a healthy call there is not confident (:data:`OUTSIDE_SPEEDS`).
 
 The result's keys: ``condition`` (None when not assessed), ``condition_probability_<name>``,
 ``condition_confident``, ``spall_length_m`` with ``_low`` and ``_high`` (None unless a spall is
@@ -30,6 +32,7 @@ from __future__ import annotations
 import math
 
 from signatelec.config.bearing import Bearing
+from signatelec.config.constraints import HEALTHY
 from signatelec.estimation.condition import CONDITIONS, PROBABILITY, SEVERITY_TARGET, SPALLS
 from signatelec.estimation.condition_features import condition_features
 from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
@@ -46,6 +49,13 @@ CONDITION_LINES = {
     "ball": ("ball_defect", "envelope"),
     "unbalance": ("shaft", "raw"),
 }
+#: Why a healthy call outside the condition model's training speeds is not confident: the
+#: default model's confident calls on fast-DEM runs of datasets/diagnosis.toml's design outside
+#: them (100-250 rad/s over 0.5 s, 900-1400 rad/s over 0.2 s; 16 runs per condition, 0.2 %
+#: noise) were right for every fault (90 of 90; every spall of 0.4 mm or more typed right) and
+#: wrong for every healthy call (7 of 7: spalls of 0.12-0.38 mm missed), where inside them
+#: (300-700 rad/s) every confident call was right (55 of 55).
+OUTSIDE_SPEEDS = "a healthy call there is not confident (a short spall may be missed)"
 #: Result keys of the characteristic line.
 LINE_KEYS = ("condition_line", "condition_line_hz", "condition_line_found_hz", "condition_line_snr")
 
@@ -76,6 +86,19 @@ def matched_line(condition: str, analysis) -> dict:
         "condition_line_found_hz": found if math.isfinite(found) else None,
         "condition_line_snr": spectrum.line(f_hz) / floor if floor > 0.0 else None,
     }
+
+
+def speed_warning(model, omega_rad_s: float, call: str | None) -> str | None:
+    """The warning of a condition ``call`` at a speed outside the condition ``model``'s
+    training range (None within it, or without a range): an extrapolation, and a healthy call
+    is not confident there (:data:`OUTSIDE_SPEEDS`)."""
+    lo, hi = model.info.get("ranges", {}).get("omega_rad_s", (None, None))
+    if lo is None or omega_rad_s is None or lo <= omega_rad_s <= hi:
+        return None
+    return (
+        f"omega {omega_rad_s:g} rad/s is outside the condition model's training range "
+        f"{lo:g}-{hi:g} rad/s: extrapolating" + (f"; {OUTSIDE_SPEEDS}" if call == HEALTHY else "")
+    )
 
 
 def least_cage_revolutions(model) -> tuple[float, float]:
@@ -124,14 +147,19 @@ def assess_condition(
     notes = []
     probs = {c: out[f"{PROBABILITY}{c}"] for c in model.estimator.classes_}
     best = out["condition"]
+    off_speed = speed_warning(model, omega_rad_s, best)
     out["condition_confident"] = bool(probs[best] >= CONFIDENT_CONDITION)
     out["condition_in_domain_score"] = score
+    if off_speed is not None:
+        notes.append(f"warning: condition: {off_speed}")
     if not out["condition_confident"]:
         likely = [c for c, p in sorted(probs.items(), key=lambda kv: -kv[1]) if p >= 0.1]
         notes.append(
             f"condition uncertain: {' or '.join(likely)} (no probability reaches "
             f"{CONFIDENT_CONDITION:.0%}); a longer or quieter trace is needed to tell"
         )
+    if off_speed is not None and best == HEALTHY:
+        out["condition_confident"] = False
     if score < WARN_SCORE:
         notes.append(
             f"warning: condition in-domain score {score:.2g} (below {WARN_SCORE:g}; farthest: "

@@ -151,9 +151,11 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     """The condition keys of a stretch from its ``assessed`` windows (module docstring):
     ``condition`` (the call most of them share; a tie to healthy, else to the larger mean
     probability), ``condition_probability`` (the called condition's mean probability) and
-    ``condition_probability_<name>`` (the means), ``condition_assessments`` (their number) and
+    ``condition_probability_<name>`` (the means), ``condition_assessments`` (their number),
     ``condition_faulty_share`` (the share of them called anything but healthy: above 1/2 the
-    stretch is faulty); none without an assessment."""
+    stretch is faulty) and ``condition_omega_rad_s`` (their median speed, which
+    :func:`~signatelec.estimation.monitor_report.qualify` checks against the condition model's
+    training range); none without an assessment."""
     pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
     if not pc:
         return {}
@@ -169,12 +171,15 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     # to a fault that the model's own rule called healthy in each window)
     best = max(names, key=lambda k: (votes[k], k == HEALTHY, mean[k]))
     faulty = sum(v for k, v in votes.items() if k != HEALTHY) / calls.size
-    return {
+    out = {
         "condition": best,
         "condition_probability": mean[best],
         "condition_assessments": int(calls.size),
         "condition_faulty_share": faulty,
-    } | {f"{PROBABILITY}{k}": v for k, v in mean.items()}
+    }
+    if "omega_rad_s" in assessed:
+        out["condition_omega_rad_s"] = float(np.nanmedian(assessed["omega_rad_s"][done]))
+    return out | {f"{PROBABILITY}{k}": v for k, v in mean.items()}
 
 
 def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -> pd.DataFrame:

@@ -68,6 +68,7 @@ def qualify(
     ranges: dict | None = None,
     window_s: float | None = None,
     faulty_ranges: dict | None = None,
+    condition_model=None,
 ) -> list:
     """Mark, in place, each stretch whose windows cannot carry a confident answer: its
     ``warnings`` (what ``estimate`` warns of for one trace, read from the windows that answered
@@ -85,9 +86,13 @@ def qualify(
     healthy bearings), ``window_s`` above :data:`~signatelec.estimation.monitor_settings.WINDOW_S`,
     whose length-dependent features (:data:`~signatelec.estimation.features.LENGTH_DEPENDENT`)
     the model never saw) and ``regime_confident`` (the regime probability at least
-    :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). Returns
-    the warnings as notes naming their stretch (the window's length: one note for all)."""
-    from signatelec.estimation.diagnose import CONFIDENT_CONDITION
+    :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). A
+    condition called at a speed outside the ``condition_model``'s training range is warned of
+    apart, in ``condition_warnings`` (:func:`~signatelec.estimation.diagnose.speed_warning`:
+    a healthy call there is not confident), which leaves the load state's confidence alone.
+    Returns the warnings as notes naming their stretch (the window's length: one note for
+    all)."""
+    from signatelec.estimation.diagnose import CONFIDENT_CONDITION, speed_warning
     from signatelec.estimation.domain import WARN_SCORE
     from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 
@@ -133,8 +138,12 @@ def qualify(
                     "bearings (no faulty model, or no window in its domain), the load state is "
                     "an extrapolation"
                 )
+        if condition is not None and condition_model is not None:
+            off = speed_warning(condition_model, s.get("condition_omega_rad_s"), condition)
+            s["condition_warnings"] = [f"condition: {off}"] if off else []
         notes += [
-            f"stretch {time_text(s['start_s'])}-{time_text(s['end_s'])} s: {w}" for w in warnings
+            f"stretch {time_text(s['start_s'])}-{time_text(s['end_s'])} s: {w}"
+            for w in warnings + s.get("condition_warnings", [])
         ]
         if long_window:
             warnings.append(long_window)
@@ -172,6 +181,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
     (and its faulty model's) the stretches are qualified against (:func:`qualify`)."""
     windows = table.frame()
     settings = settings if model is None else settings.for_model(model)  # (its bearing)
+    condition = getattr(model, "condition", None)
     model = model if settings.load_state else None  # (another bearing's: no load state)
     faulty = getattr(model, "faulty", None)
     notes = list(table.notes) + qualify(
@@ -179,6 +189,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
         model.info.get("ranges") if model is not None else None,
         settings.window_s if settings.load_state else None,
         faulty.info.get("ranges") if faulty is not None else None,
+        condition,
     )
     if table.gaps:
         longest = max(table.gaps, key=lambda g: g[1] - g[0])
@@ -453,6 +464,7 @@ def format_summary(summary: dict) -> str:
             line += "no load estimate (no window of it carries one)"
         if "condition" in s:
             line += f"  condition {s['condition']} ({s['condition_probability']:.2f})"
+            line += ", extrapolated" if s.get("condition_warnings") else ""
         lines.append(line)
     for a in summary["alarms"]:
         lines.append(
