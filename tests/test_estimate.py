@@ -539,7 +539,8 @@ def test_estimate_parquet_and_columns(small_model, tmp_path, capsys):
 def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
     """The trace ``df`` (time_s in seconds) as spreadsheets and loggers write it: separated by
     semicolons or tabs with decimal commas (a European locale's export), its time as Parquet
-    timestamps (without a zone, in Paris time, as elapsed durations) or as ISO 8601 text."""
+    timestamps (without a zone, in Paris time, as elapsed durations) or as ISO 8601 text, and
+    compressed by gzip, bzip2 or xz."""
     stamps = pd.Timestamp("2026-11-24 10:00:00") + pd.to_timedelta(
         np.round(df["time_s"].to_numpy() * 1e9).astype(np.int64), unit="ns"
     )
@@ -556,6 +557,9 @@ def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
         paths[name] = tmp / name
     df.assign(time_s=stamps.strftime("%Y-%m-%dT%H:%M:%S.%fZ")).to_csv(tmp / "iso.csv", index=False)
     paths["iso.csv"] = tmp / "iso.csv"
+    for compression in ("gz", "bz2", "xz"):  # a logger's compressed CSV
+        df.to_csv(tmp / f"packed.csv.{compression}", index=False)
+        paths[f"packed.csv.{compression}"] = tmp / f"packed.csv.{compression}"
     return paths
 
 

@@ -64,11 +64,29 @@ def test_spreadsheet_and_logger_formats_read_in_chunks(tmp_path):
         chunks = list(read_chunks(path, chunk_rows=2000))
         assert len(chunks) > 1, name
         got = np.concatenate([c.time_s for c in chunks])
-        start = {"semicolons.csv": 0.0, "tabs.tsv": 0.0, "elapsed.parquet": 0.0}.get(
-            name, origin - (3600.0 if name == "paris.parquet" else 0.0)
-        )
+        start = origin - (3600.0 if name == "paris.parquet" else 0.0)
+        start = 0.0 if name.startswith(("semicolons", "tabs", "elapsed", "packed")) else start
         np.testing.assert_allclose(got - start, t, rtol=0, atol=1e-6, err_msg=name)
         np.testing.assert_array_equal(np.concatenate([c.resistance_ohm for c in chunks]), r)
+
+
+@pytest.mark.parametrize("compression", ["gz", "bz2", "xz"])
+def test_a_damaged_compressed_file_is_refused_in_one_line(tmp_path, compression):
+    """A compressed CSV cut short (a logger stopped mid-write) or not compressed at all: one
+    line naming the file and the damage, wherever it is met; --follow cannot read one."""
+    t = np.arange(100000) / FS
+    path = tmp_path / f"cut.csv.{compression}"
+    pd.DataFrame({"time_s": t, "resistance_ohm": 3e-3 + 0 * t}).to_csv(path, index=False)
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    fake = tmp_path / f"fake.csv.{compression}"
+    fake.write_text("time_s,resistance_ohm\n0,1\n")
+    for p in (path, fake):
+        with pytest.raises(TraceError) as info:
+            list(read_chunks(p))
+        assert f"cannot be read as csv.{compression} (damaged or truncated: " in str(info.value)
+        assert "\n" not in str(info.value)
+    with pytest.raises(TraceError, match="a compressed file cannot be read before its writer"):
+        read_chunks(path, follow=True)
 
 
 def test_binary_file_given_as_csv(tmp_path):

@@ -20,7 +20,8 @@ of an ordered one, so the statistics alone cannot tell). What goes unseen in a g
 sorted: a NaN time (not a null; it would have been dropped and its neighbours interpolated onto
 a uniform grid), a repeated time beside a missing one, and jitter between its ends.
 
-CSV as blocks of whole lines parsed by pandas with the header of the file. The columns are
+CSV (maybe compressed by gzip, bzip2 or xz, decompressed as it is read) as blocks of whole
+lines parsed by pandas with the header of the file. The columns are
 checked and converted as :func:`signatelec.measurement.traces.read_trace` does
 (:func:`~signatelec.measurement.traces.check_columns`,
 :func:`~signatelec.measurement.traces.numeric_column`): one-line :class:`TraceError`.
@@ -37,6 +38,7 @@ time gathering one), until the end of the stream. A file named ``-`` is read as 
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import sys
@@ -54,6 +56,8 @@ from signatelec.measurement.traces import (
     csv_dialect,
     header_names,
     numeric_column,
+    open_csv,
+    trace_format,
 )
 
 #: Rows per chunk: 2^18 rows of three float columns are 6 MB.
@@ -61,8 +65,6 @@ CHUNK_ROWS = 1 << 18
 #: Rows of the largest Parquet row group read whole (2^21 rows of three float columns are
 #: 50 MB); larger ones are read in record batches of ``chunk_rows``.
 GROUP_ROWS = 1 << 21
-PARQUET_SUFFIXES = (".parquet", ".pq")
-CSV_SUFFIXES = (".csv", ".txt", ".tsv")
 #: Longest line read (a file whose lines end in a lone carriage return is one "line").
 _LINE_BYTES = 1 << 20
 #: The path that reads CSV from standard input.
@@ -296,11 +298,26 @@ def _check_line_ends(text: bytes, where: str, row: int) -> None:
         )
 
 
-def _open(path, where):
+@contextlib.contextmanager
+def _open(path, where, compression=None):
+    """A CSV file open for reading bytes; of a compressed one, the errors of a damaged or
+    truncated stream met while it is read are one line (TraceError)."""
+    import lzma
+    import zlib
+
     try:
-        return open(path, "rb")
+        fh = open_csv(path, compression)
     except OSError as exc:
         raise TraceError(f"{where}: cannot be read ({exc.strerror or _first(exc)})") from None
+    with fh:
+        try:
+            yield fh
+        except (EOFError, OSError, lzma.LZMAError, zlib.error) as exc:
+            if compression is None:
+                raise
+            raise TraceError(
+                f"{where}: cannot be read as csv{compression} (damaged or truncated: {_first(exc)})"
+            ) from None
 
 
 def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, tuple[str, str]]:
@@ -356,11 +373,13 @@ def _peeked_header(names, where) -> None:
             return
 
 
-def _csv_chunks(path, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[Chunk]:
+def _csv_chunks(
+    path, names, where, chunk_rows, follow, poll_s, idle_s, compression=None
+) -> Iterator[Chunk]:
     if path is None:
         yield from _csv_rows(sys.stdin.buffer, names, where, chunk_rows, False, poll_s, None)
         return
-    with _open(path, where) as fh:
+    with _open(path, where, compression) as fh:
         yield from _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s)
 
 
@@ -437,30 +456,28 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
 
 
 def _checked(path, time_column, resistance_column, speed_column, follow):
-    """(path, where, names, format) of a trace file: refused if it is no file, of an unknown
-    format, or asks one column twice; (None, ..., "csv") for standard input."""
+    """(path, where, names, format, compression) of a trace file
+    (:func:`~signatelec.measurement.traces.trace_format`): refused if it is no file, of an
+    unknown format, or asks one column twice; (None, ..., "csv", None) for standard input."""
     where = trace_label(path)
     names = _columns(time_column, resistance_column, speed_column)
     if len(set(names)) < len(names):
         raise TraceError(f"{where}: the time, resistance and speed columns must differ ({names})")
     if is_standard_input(path):
-        return None, where, names, "csv"
+        return None, where, names, "csv", None
     p = Path(path)
-    suffix = p.suffix.lower()
     if p.is_dir():
         raise TraceError(f"{where}: is a directory; give a .csv or .parquet file")
     if not p.is_file():
         raise TraceError(f"{where}: no such file")
-    if suffix in PARQUET_SUFFIXES:
-        if follow:
-            raise TraceError(
-                f"{where}: --follow reads a CSV file as it grows; a Parquet file cannot be read "
-                "before its writer closes it"
-            )
-        return p, where, names, "parquet"
-    if suffix in CSV_SUFFIXES:
-        return p, where, names, "csv"
-    raise TraceError(f"{where}: unknown format {suffix or '(none)'!r}; give .csv or .parquet")
+    kind, compression = trace_format(p, where)
+    if follow and (kind == "parquet" or compression):
+        what = "a Parquet file" if kind == "parquet" else "a compressed file"
+        raise TraceError(
+            f"{where}: --follow reads a CSV file as it grows; {what} cannot be read before its "
+            "writer closes it"
+        )
+    return p, where, names, kind, compression
 
 
 def check_trace_file(
@@ -476,13 +493,15 @@ def check_trace_file(
     there (a Parquet footer, a CSV header line; a file being followed may not have its header
     yet, and is not waited for; standard input's is read if it has arrived, and left in the
     stream). Cheap: run it before anything long."""
-    p, where, names, kind = _checked(path, time_column, resistance_column, speed_column, follow)
+    p, where, names, kind, compression = _checked(
+        path, time_column, resistance_column, speed_column, follow
+    )
     if kind == "parquet":
         _parquet_file(p, names, where)
     elif p is None:
         _peeked_header(names, where)
     elif not follow and p is not None:
-        with _open(p, where) as fh:
+        with _open(p, where, compression) as fh:
             _csv_header(fh, names, where, False, 0.0, None)
 
 
@@ -498,7 +517,9 @@ def read_chunks(
     idle_s: float | None = None,
 ) -> Iterator[Chunk]:
     """The rows of a trace file, ``chunk_rows`` at a time (module docstring)."""
-    p, where, names, kind = _checked(path, time_column, resistance_column, speed_column, follow)
+    p, where, names, kind, compression = _checked(
+        path, time_column, resistance_column, speed_column, follow
+    )
     if kind == "parquet":
         return _parquet_chunks(p, names, where, chunk_rows)
-    return _csv_chunks(p, names, where, chunk_rows, follow, poll_s, idle_s)
+    return _csv_chunks(p, names, where, chunk_rows, follow, poll_s, idle_s, compression)

@@ -265,41 +265,73 @@ def numeric_column(
     return number.to_numpy(dtype=float)
 
 
+#: Suffixes of a trace file of each format.
+PARQUET_SUFFIXES = (".parquet", ".pq")
+CSV_SUFFIXES = (".csv", ".txt", ".tsv")
+#: Compressions a CSV file may be written with (a logger's long records): its last suffix.
+COMPRESSED_SUFFIXES = (".gz", ".bz2", ".xz")
+
+
+def trace_format(path: Path, where: str) -> tuple[str, str | None]:
+    """("csv" or "parquet", the compression's suffix or None) of a trace file, from its
+    suffixes (a CSV file compressed by gzip, bzip2 or xz: ``.csv.gz``, ``.csv.bz2``,
+    ``.csv.xz``), or TraceError naming the format that is not known."""
+    suffixes = [x.lower() for x in path.suffixes[-2:]]
+    last = suffixes[-1] if suffixes else ""
+    if last in PARQUET_SUFFIXES:
+        return "parquet", None
+    if last in CSV_SUFFIXES:
+        return "csv", None
+    if last in COMPRESSED_SUFFIXES and len(suffixes) == 2 and suffixes[0] in CSV_SUFFIXES:
+        return "csv", last
+    name = "".join(suffixes) if last in COMPRESSED_SUFFIXES else last
+    raise TraceError(
+        f"{where}: unknown format {name or '(none)'!r}; give .csv or .parquet (a CSV file may be "
+        f"compressed: {', '.join('.csv' + c for c in COMPRESSED_SUFFIXES)})"
+    )
+
+
+def open_csv(path: Path, compression: str | None):
+    """A CSV trace file opened for reading bytes, decompressed as it is read."""
+    import bz2
+    import gzip
+    import lzma
+
+    opener = {None: open, ".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}[compression]
+    return opener(path, "rb")
+
+
 def read_trace(
     path: str | Path,
     time_column: str = "time_s",
     resistance_column: str = "resistance_ohm",
     phase_column: str = "phase",
 ) -> TraceColumns:
-    """The time and resistance columns of a CSV (``.csv``, ``.txt``) or Parquet file, as floats
+    """The time and resistance columns of a CSV (``.csv``, ``.txt``, ``.tsv``, maybe compressed:
+    :func:`trace_format`) or Parquet file, as floats
     (cells that are not numbers become NaN), and its ``phase_column`` if it has one. Raises
     TraceError naming the file."""
     import pandas as pd
 
     p = Path(path)
     where = f"trace {str(path)!r}"
-    suffix = p.suffix.lower()
     if not p.is_file():
         raise TraceError(f"{where}: no such file")
+    kind, compression = trace_format(p, where)
     try:
-        if suffix in (".parquet", ".pq"):
+        if kind == "parquet":
             df = pd.read_parquet(p)
-        elif suffix in (".csv", ".txt", ".tsv"):
-            with open(p, "rb") as fh:
+        else:
+            with open_csv(p, compression) as fh:
                 sep, decimal = csv_dialect(fh.read(1 << 16))
             df = pd.read_csv(p, sep=sep, decimal=decimal, comment="#")
-        else:
-            raise TraceError(
-                f"{where}: unknown format {suffix or '(none)'!r}; give .csv or .parquet"
-            )
-    except TraceError:
-        raise
-    except (OSError, ValueError, pd.errors.ParserError, csv.Error) as exc:
-        # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell)
+    except (OSError, EOFError, ValueError, pd.errors.ParserError, csv.Error) as exc:
+        # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell);
+        # OSError, EOFError: a damaged or truncated compressed file
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise TraceError(f"{where}: cannot be read as {suffix[1:]} ({text})") from None
+        raise TraceError(f"{where}: cannot be read as {kind}{compression or ''} ({text})") from None
     wanted = (time_column, resistance_column)
-    if suffix in (".parquet", ".pq"):
+    if kind == "parquet":
         check_columns(df.columns, wanted, where)
     else:
         check_columns(header_names(p, sep=sep, comment="#"), wanted, where)
