@@ -508,6 +508,8 @@ def test_standard_input_gives_the_file_s_answer(model_file, tiles, tmp_path):
         ("short", ["--omega", "500"], "shorter than one --window"),
         ("missing", ["--omega", "500"], "no such file"),
         ("unlike", ["--omega", "500"], "none of its 3 windows carries an estimate"),
+        # after a gap in its first window: named by the windows that have samples
+        ("gap_first", ["--omega", "500"], "carries an estimate; the first: out of domain"),
     ],
 )
 def test_bad_input(model_file, tiles, tmp_path, capsys, case, args, expected):
@@ -520,6 +522,10 @@ def test_bad_input(model_file, tiles, tmp_path, capsys, case, args, expected):
         # a pure cosine at f_bp, noise-free: unlike every training trace
         "unlike": _write(tmp_path / "unlike.parquet", t, 3e-3 * (1 + 1e-3 * np.cos(2575.0 * t))),
     }
+    cut = (t < 0.05) | (t >= 0.3)
+    paths["gap_first"] = _write(
+        tmp_path / "gap.parquet", t[cut], 3e-3 * (1 + 1e-3 * np.cos(2575.0 * t[cut]))
+    )
     text = pd.DataFrame({"time_s": t, "resistance_ohm": r.astype(object)})
     text.loc[7, "resistance_ohm"] = "abc"
     paths["text"] = tmp_path / "text.csv"

@@ -579,9 +579,11 @@ def monitor_trace(
     if not s.load_state and "condition" in windows:
         answers |= windows["condition"].notna()
     if len(windows) and not answers.any():
+        # the first that is not a gap's (a record that starts with a gap names its rule)
+        told = windows["status"][~windows["status"].str.startswith("no data")]
         raise TraceError(
             f"{source}: none of its {len(windows)} windows carries an estimate; the first: "
-            f"{windows['status'].iloc[0]}"
+            f"{(told if len(told) else windows['status']).iloc[0]}"
         )
     if not table.parts:
         raise TraceError(
