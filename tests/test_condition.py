@@ -380,6 +380,21 @@ def test_a_healthy_call_outside_the_training_speeds_is_not_confident(model_file,
     ) in "\n".join(res["outside"]["notes"])
 
 
+def test_the_training_speeds_are_read_with_a_margin_and_as_a_span():
+    """The range is the runs' drawn speeds (300.1-698.9 rad/s of the design's 300-700): within
+    1 % of it a speed is inside; a span of assessments' speeds is outside if any part is."""
+    from types import SimpleNamespace
+
+    from signatelec.estimation.diagnose import speed_warning
+
+    model = SimpleNamespace(info={"ranges": {"omega_rad_s": [300.133, 698.892]}})
+    for inside in (300.0, 700.0, (300.0, 700.0)):
+        assert speed_warning(model, inside, "healthy") is None
+    assert speed_warning(model, 290.0, "outer").endswith("300.133-698.892 rad/s: extrapolating")
+    assert speed_warning(model, (500.0, 900.0), "healthy").startswith("omega 500-900 rad/s is")
+    assert "a healthy call there is not confident" in speed_warning(model, 900.0, "healthy")
+
+
 @pytest.mark.parametrize("omega", [150.0, 1000.0])
 def test_a_spall_outside_the_training_speeds_is_found_with_a_warning(omega):
     """The default condition model (300-700 rad/s) on quasi-static traces of 2 mm spalls at

@@ -499,7 +499,8 @@ def test_estimate_example_json(small_model, tmp_path, capsys):
 )
 def test_uncertain_regime_is_said(small_model, monkeypatch, probabilities, confident):
     """Below CONFIDENT_PROBABILITY the estimate flags the regime and names the rivals."""
-    from signatelec.measurement.traces import prepare_trace, read_trace
+    from signatelec.measurement.files import read_trace
+    from signatelec.measurement.traces import prepare_trace
 
     model = load_model(small_model)
     predict_one = model.predict_one
@@ -539,8 +540,8 @@ def test_estimate_parquet_and_columns(small_model, tmp_path, capsys):
 def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
     """The trace ``df`` (time_s in seconds) as spreadsheets and loggers write it: separated by
     semicolons or tabs with decimal commas (a European locale's export), its time as Parquet
-    timestamps (without a zone, in Paris time, as elapsed durations) or as ISO 8601 text, and
-    compressed by gzip, bzip2 or xz."""
+    timestamps (without a zone, in Paris time, as elapsed durations), as ISO 8601 text (with a
+    comma fraction too) or as a time of day, and compressed by gzip, bzip2 or xz."""
     stamps = pd.Timestamp("2026-11-24 10:00:00") + pd.to_timedelta(
         np.round(df["time_s"].to_numpy() * 1e9).astype(np.int64), unit="ns"
     )
@@ -557,6 +558,12 @@ def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
         paths[name] = tmp / name
     df.assign(time_s=stamps.strftime("%Y-%m-%dT%H:%M:%S.%fZ")).to_csv(tmp / "iso.csv", index=False)
     paths["iso.csv"] = tmp / "iso.csv"
+    # a European export: a comma fraction in the timestamp, decimal commas, semicolons
+    comma = df.assign(time_s=stamps.strftime("%Y-%m-%d %H:%M:%S,%f"))
+    comma.to_csv(tmp / "european.csv", sep=";", decimal=",", index=False)
+    paths["european.csv"] = tmp / "european.csv"
+    df.assign(time_s=stamps.strftime("%H:%M:%S.%f")).to_csv(tmp / "clock.csv", index=False)
+    paths["clock.csv"] = tmp / "clock.csv"
     for compression in ("gz", "bz2", "xz"):  # a logger's compressed CSV
         df.to_csv(tmp / f"packed.csv.{compression}", index=False)
         paths[f"packed.csv.{compression}"] = tmp / f"packed.csv.{compression}"
@@ -565,17 +572,28 @@ def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
 
 def test_estimate_reads_spreadsheet_and_logger_formats(small_model, tmp_path, capsys):
     """The example written with decimal commas, or with timestamps for its time, gives the
-    example's estimate (to 1e-6 from timestamps, whose seconds since 1970 are rounded to
-    2.4e-7 s as doubles; the decimal commas had been refused as text in the
-    time column; a Parquet timestamp had been read as nanoseconds for seconds, "sampled at
-    2e-05 Hz"); a timestamp column with a cell that is no timestamp is refused naming it."""
+    example's estimate (the decimal commas had been refused as text in the time column; a
+    Parquet timestamp had been read as nanoseconds for seconds, "sampled at 2e-05 Hz"), and so
+    does the example less one sample: timestamps are read as seconds after the first, exact
+    (as seconds since 1970 they round to 0.24 us, and the step read past a missing sample
+    was off: resampled at 19972.9 Hz); a timestamp column with a cell that is no timestamp is
+    refused naming it."""
     args = ["--omega", "500", "--model", str(small_model), "--quiet"]
     answers = {}
     for name, path in {"example": EXAMPLE, **_formats(_example(), tmp_path)}.items():
         out = tmp_path / f"{name}.json"
         assert _run(["estimate", str(path), *args, "--out", str(out)]) == 0, capsys.readouterr()
         answers[name] = json.loads(out.read_text())["radial_load_n"]
-    assert answers == pytest.approx(dict.fromkeys(answers, answers["example"]), rel=1e-6)
+    assert answers == pytest.approx(dict.fromkeys(answers, answers["example"]), rel=1e-9)
+    holed = _example().drop(index=500)
+    holed.to_csv(tmp_path / "holed.csv", index=False)
+    _formats(holed, tmp_path)  # (the stamps' files written again, less the sample)
+    for name in ("holed.csv", "stamps.parquet", "iso.csv"):
+        out = tmp_path / f"holed_{name}.json"
+        assert _run(["estimate", str(tmp_path / name), *args, "--out", str(out)]) == 0
+        answers[f"holed_{name}"] = json.loads(out.read_text())["radial_load_n"]
+    assert answers["holed_stamps.parquet"] == pytest.approx(answers["holed_holed.csv"], rel=1e-9)
+    assert answers["holed_iso.csv"] == pytest.approx(answers["holed_holed.csv"], rel=1e-9)
     bad = pd.read_csv(tmp_path / "iso.csv")
     bad.loc[700, "time_s"] = "soon"
     bad.to_csv(tmp_path / "bad.csv", index=False)

@@ -261,12 +261,37 @@ def test_a_condition_called_outside_its_training_speeds_is_warned_apart(
         "missed)"
     ]
     assert inner == [healthy[0].split(";")[0]]
-    assert outside[0]["condition_omega_rad_s"] == pytest.approx(OMEGA)
+    assert outside[0]["condition_speeds_rad_s"] == pytest.approx([OMEGA, OMEGA])
     for a, b in zip(inside, outside, strict=True):
         assert (a["warnings"], a["regime_confident"]) == (b["warnings"], b["regime_confident"])
     notes = runs["outside"][0]["notes"]
     assert sum("outside the condition model's training range" in n for n in notes) == 2
     assert runs["outside"][1].count("extrapolated") == 2 and "extrapolated" not in runs["inside"][1]
+
+
+def test_a_fault_gone_into_a_healthy_call_beyond_the_training_speeds_is_not_confident():
+    """A condition alarm into a healthy stretch whose assessments' speeds leave the condition
+    model's range (500-900 rad/s of 300-700) is not confident (a healthy call there missed
+    short spalls); the alarm into the fault is."""
+    from types import SimpleNamespace
+
+    from signatelec.estimation.monitor_report import qualify, qualify_alarms
+
+    model = SimpleNamespace(info={"ranges": {"omega_rad_s": [300.0, 700.0]}})
+    speeds = ([500.0, 520.0], [500.0, 650.0], [600.0, 900.0])
+    stretches = [
+        {"start_s": 60.0 * i, "end_s": 60.0 * (i + 1), "condition": c, "condition_speeds_rad_s": v}
+        for i, (c, v) in enumerate(zip(("healthy", "inner", "healthy"), speeds, strict=True))
+    ]
+    alarms = [
+        {"time_s": 60.0, "kind": "condition", "what": "condition healthy -> inner"},
+        {"time_s": 120.0, "kind": "condition", "what": "condition inner -> healthy"},
+    ]
+    notes = qualify(stretches, condition_model=model)
+    qualify_alarms(alarms, stretches)
+    assert [bool(s["condition_warnings"]) for s in stretches] == [False, False, True]
+    assert len(notes) == 1 and notes[0].startswith("stretch 120-180 s: condition: omega 600-900")
+    assert [a["confident"] for a in alarms] == [True, False]
 
 
 def test_a_stated_prior_moves_the_reported_probabilities_only(model_file, tile, tmp_path):

@@ -53,21 +53,48 @@ def _refused(path, **settings) -> str:
 
 def test_spreadsheet_and_logger_formats_read_in_chunks(tmp_path):
     """A record read in chunks whatever the way its numbers and times are written (decimal
-    commas, Parquet timestamps with or without a zone, durations, ISO 8601 text): the same
-    resistances, and times the seconds of its clock (timestamps since 1970 UTC)."""
+    commas, Parquet timestamps with or without a zone, durations, ISO 8601 text, a time of
+    day): the same resistances, and its times in seconds (timestamps' after the first, the
+    chunks' ``origin_utc``; a time of day's after midnight)."""
     from tests.test_estimate import _formats
 
     t = np.arange(5000) / FS
     r = 3e-3 * (1 + 0.01 * np.cos(2 * np.pi * expected_ball_pass_hz(OMEGA) * t))
-    origin = pd.Timestamp("2026-11-24 10:00:00", tz="UTC").timestamp()
+    stamped = ("stamps.parquet", "paris.parquet", "iso.csv", "european.csv")
     for name, path in _formats(pd.DataFrame({"time_s": t, "resistance_ohm": r}), tmp_path).items():
         chunks = list(read_chunks(path, chunk_rows=2000))
         assert len(chunks) > 1, name
         got = np.concatenate([c.time_s for c in chunks])
-        start = origin - (3600.0 if name == "paris.parquet" else 0.0)
-        start = 0.0 if name.startswith(("semicolons", "tabs", "elapsed", "packed")) else start
-        np.testing.assert_allclose(got - start, t, rtol=0, atol=1e-6, err_msg=name)
+        start = 36000.0 if name == "clock.csv" else 0.0
+        # exact, but a time of day's 36000 s less midnight (to 7e-12 s)
+        np.testing.assert_allclose(got - start, t, rtol=0, atol=1e-11 * (start > 0), err_msg=name)
         np.testing.assert_array_equal(np.concatenate([c.resistance_ohm for c in chunks]), r)
+        hour = "09" if name == "paris.parquet" else "10"
+        origin = f"2026-11-24T{hour}:00:00+00:00" if name in stamped else None
+        assert {c.origin_utc for c in chunks} == {origin}, name
+
+
+def test_a_followed_file_with_decimal_commas_is_read_once_its_rows_arrive(tmp_path):
+    """A file followed from before its logger writes a row (its header alone): the decimal
+    mark is read from the first rows, not from the header (they had been refused as text)."""
+    path = tmp_path / "live.csv"
+    path.write_text("time_s;resistance_ohm\n")
+
+    def write():
+        time.sleep(0.3)
+        with open(path, "a") as fh:
+            fh.writelines(
+                f"{i / FS:.6f};{3e-3 + 1e-6 * i:.9f}\n".replace(".", ",") for i in range(50)
+            )
+
+    writer = threading.Thread(target=write)
+    writer.start()
+    chunks = list(read_chunks(path, follow=True, poll_s=0.02, idle_s=1.0))
+    writer.join()
+    np.testing.assert_allclose(np.concatenate([c.time_s for c in chunks]), np.arange(50) / FS)
+    np.testing.assert_allclose(
+        np.concatenate([c.resistance_ohm for c in chunks]), 3e-3 + 1e-6 * np.arange(50)
+    )
 
 
 @pytest.mark.parametrize("compression", ["gz", "bz2", "xz"])

@@ -97,6 +97,9 @@ def test_speed_in_hz_or_rpm_named(model_file, tmp_path, capsys):
     assert implied == pytest.approx(500.0, rel=0.005)
     code, _, err = _estimate(capsys, EXAMPLE, rpm, model_file)
     _refused(code, err, "below the 6.7", f"was the speed given in rpm? ({rpm:g} rpm is 500 rad/s)")
+    # a rate too low for a speed whose reading in rpm the trace does not bear out: no question
+    code, _, err = _estimate(capsys, EXAMPLE, 3000.0, model_file)
+    assert "was the speed given" not in _refused(code, err, "below the 4.2")
     # the example's ripple (409.5 Hz) at 100 kHz: the rate rpm asks
     t = np.arange(10000) / 1e5
     r = np.interp(
@@ -107,6 +110,22 @@ def test_speed_in_hz_or_rpm_named(model_file, tmp_path, capsys):
     assert float(re.search(r"speed is about (\d+) rad/s", line).group(1)) == pytest.approx(
         500.0, rel=0.005
     )
+
+
+def test_a_hum_where_the_speed_in_rpm_puts_the_ripple_names_no_unit():
+    """A trace without a ball-pass line (white noise at the level: a load zone's edge on a
+    zero of the ripple shows none) and a mains hum of 0.05 % at 50, 60 or 100 Hz, at the speed
+    whose line read in rpm falls on the hum: no unit is named (the hum had been read as a speed
+    in rpm). The same tone away from the mains' harmonics, at 47 Hz, is read as the ripple of
+    a speed in rpm: the rule has a reach."""
+    rng = np.random.default_rng(14)
+    fs = 50000.0
+    t = np.arange(int(0.3 * fs)) / fs
+    per_rpm = expected_ball_pass_hz(1.0) * 2 * math.pi / 60  # Hz of the line per rpm
+    for tone, unit in ((50.0, None), (60.0, None), (100.0, None), (47.0, "rpm")):
+        x = 3e-3 * (1 + 0.002 * rng.standard_normal(t.size) + 5e-4 * np.sin(2 * np.pi * tone * t))
+        found = R.find_ripple(x, fs, tone / per_rpm)
+        assert found.unit == unit, (tone, found)
 
 
 def test_no_line_at_the_speed_given_is_not_read_in_another_unit():

@@ -118,7 +118,8 @@ def estimate(
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.estimation.report import format_estimate
     from signatelec.estimation.report import write_result as write_estimate
-    from signatelec.measurement.traces import TraceError, prepare_trace, read_trace
+    from signatelec.measurement.files import read_trace
+    from signatelec.measurement.traces import TraceError, prepare_trace
 
     if out is not None:
         check_writable_file(out, suffixes=(".json", ".parquet"))

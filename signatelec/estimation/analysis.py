@@ -40,7 +40,7 @@ from signatelec.estimation.window_spectra import (
     take_rows,
     welch_rows,
 )
-from signatelec.measurement.traces import N_HARMONICS, SEARCH_REL
+from signatelec.measurement.band import N_HARMONICS, SEARCH_REL
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Ball passes per Welch segment: resolution f_bp / 4, bins at multiples of f_bp / 4.

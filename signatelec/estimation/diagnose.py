@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from signatelec.config.bearing import Bearing
 from signatelec.config.constraints import HEALTHY
 from signatelec.estimation.condition import CONDITIONS, PROBABILITY, SEVERITY_TARGET, SPALLS
@@ -88,16 +90,27 @@ def matched_line(condition: str, analysis) -> dict:
     }
 
 
-def speed_warning(model, omega_rad_s: float, call: str | None) -> str | None:
-    """The warning of a condition ``call`` at a speed outside the condition ``model``'s
-    training range (None within it, or without a range): an extrapolation, and a healthy call
-    is not confident there (:data:`OUTSIDE_SPEEDS`)."""
+#: A speed within this share of the condition model's training range counts as inside it (the
+#: runs' speeds are drawn from the design's range: the default model's span 300.1-698.9 of
+#: 300-700 rad/s).
+RANGE_MARGIN = 0.01
+
+
+def speed_warning(model, omega_rad_s, call: str | None) -> str | None:
+    """The warning of a condition ``call`` at a speed, or the speeds (low, high) of several
+    assessments, outside the condition ``model``'s training range widened by
+    :data:`RANGE_MARGIN` (None within it, or without a range): an extrapolation, and a
+    healthy call is not confident there (:data:`OUTSIDE_SPEEDS`)."""
     lo, hi = model.info.get("ranges", {}).get("omega_rad_s", (None, None))
-    if lo is None or omega_rad_s is None or lo <= omega_rad_s <= hi:
+    if lo is None or omega_rad_s is None:
         return None
+    low, high = (omega_rad_s, omega_rad_s) if np.isscalar(omega_rad_s) else omega_rad_s
+    if (1.0 - RANGE_MARGIN) * lo <= low and high <= (1.0 + RANGE_MARGIN) * hi:
+        return None
+    speed = f"{low:g}" if low == high else f"{low:g}-{high:g}"
     return (
-        f"omega {omega_rad_s:g} rad/s is outside the condition model's training range "
-        f"{lo:g}-{hi:g} rad/s: extrapolating" + (f"; {OUTSIDE_SPEEDS}" if call == HEALTHY else "")
+        f"omega {speed} rad/s is outside the condition model's training range {lo:g}-{hi:g} "
+        "rad/s: extrapolating" + (f"; {OUTSIDE_SPEEDS}" if call == HEALTHY else "")
     )
 
 

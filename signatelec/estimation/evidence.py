@@ -59,7 +59,7 @@ from signatelec.estimation.health import (
     stretch_condition,
 )
 from signatelec.estimation.stretch import stretch_estimate
-from signatelec.measurement.traces import SEARCH_REL
+from signatelec.measurement.band import SEARCH_REL
 
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)

@@ -71,7 +71,7 @@ from signatelec.estimation.analysis import (
     debiased_amplitudes,
 )
 from signatelec.estimation.harmonic_fit import pairwise_sum
-from signatelec.measurement.traces import N_HARMONICS
+from signatelec.measurement.band import N_HARMONICS
 
 #: Bumped whenever a feature changes meaning: models trained on other features are refused.
 FEATURE_SET_VERSION = 1

@@ -153,9 +153,9 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     probability), ``condition_probability`` (the called condition's mean probability) and
     ``condition_probability_<name>`` (the means), ``condition_assessments`` (their number),
     ``condition_faulty_share`` (the share of them called anything but healthy: above 1/2 the
-    stretch is faulty) and ``condition_omega_rad_s`` (their median speed, which
-    :func:`~signatelec.estimation.monitor_report.qualify` checks against the condition model's
-    training range); none without an assessment."""
+    stretch is faulty) and ``condition_speeds_rad_s`` (the lowest and highest of their speeds,
+    which :func:`~signatelec.estimation.monitor_report.qualify` checks against the condition
+    model's training range); none without an assessment."""
     pc = [c for c in assessed.columns if c.startswith(PROBABILITY)]
     if not pc:
         return {}
@@ -177,8 +177,9 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
         "condition_assessments": int(calls.size),
         "condition_faulty_share": faulty,
     }
-    if "omega_rad_s" in assessed:
-        out["condition_omega_rad_s"] = float(np.nanmedian(assessed["omega_rad_s"][done]))
+    speeds = assessed["omega_rad_s"].to_numpy(float)[done] if "omega_rad_s" in assessed else []
+    if np.isfinite(speeds).any():
+        out["condition_speeds_rad_s"] = [float(np.nanmin(speeds)), float(np.nanmax(speeds))]
     return out | {f"{PROBABILITY}{k}": v for k, v in mean.items()}
 
 

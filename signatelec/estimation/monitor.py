@@ -113,6 +113,7 @@ class WindowTable:
     cpu_s: float = 0.0
     interrupted: bool = False
     gaps: list[tuple[float, float]] = field(default_factory=list)  # (last time, next) around
+    time_origin_utc: str | None = None  # a time column of timestamps: its first (Chunk)
 
     @property
     def n_windows(self) -> int:
@@ -562,6 +563,7 @@ def monitor_trace(
     with threadpool_limits(limits=1, user_api="blas"):
         try:
             for chunk in chunks:
+                table.time_origin_utc = table.time_origin_utc or chunk.origin_utc
                 cutter.add(chunk)
                 if progress is not None:
                     progress(table)

@@ -19,9 +19,10 @@ from signatelec.estimation.features import analysis_options, trace_feature_names
 from signatelec.estimation.health import defect_explains
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
 from signatelec.estimation.monitor_settings import TRACK_JUMP
+from signatelec.measurement.band import N_HARMONICS
 from signatelec.measurement.ripple import find_ripple
 from signatelec.measurement.sanity import check_level
-from signatelec.measurement.traces import N_HARMONICS, TraceError
+from signatelec.measurement.traces import TraceError
 
 #: Length of each block's ripple and level screening (the ripple search costs ~T^2).
 SCREEN_S = 0.5

@@ -139,7 +139,7 @@ def qualify(
                     "an extrapolation"
                 )
         if condition is not None and condition_model is not None:
-            off = speed_warning(condition_model, s.get("condition_omega_rad_s"), condition)
+            off = speed_warning(condition_model, s.get("condition_speeds_rad_s"), condition)
             s["condition_warnings"] = [f"condition: {off}"] if off else []
         notes += [
             f"stretch {time_text(s['start_s'])}-{time_text(s['end_s'])} s: {w}"
@@ -158,9 +158,10 @@ def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
     """Mark, in place, each alarm ``confident`` when neither stretch it joins carries a warning
     (:func:`qualify`): a regime alarm into a stretch without a ball-pass line is no finding.
     The warning that a faulty stretch's load state is an extrapolation does not touch the
-    condition alarm that found the fault; a load or regime alarm between a stretch answered by
-    the healthy load model and one answered by the faulty model is not confident (the two
-    models' errors differ)."""
+    condition alarm that found the fault; a condition alarm into a healthy call at a speed
+    outside the condition model's training range (``condition_warnings``) is not confident;
+    a load or regime alarm between a stretch answered by the healthy load model and one
+    answered by the faulty model is not confident (the two models' errors differ)."""
     for a in alarms:
         near = [
             s
@@ -170,6 +171,13 @@ def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
         warned = [w for s in near for w in s.get("warnings", ())]
         if a["kind"] == "condition":
             warned = [w for w in warned if not w.startswith(FAULTY_WARNING)]
+            # a fault gone, into a healthy call where it is not confident (the speed)
+            warned += [
+                w
+                for s in near
+                if abs(s["start_s"] - a["time_s"]) < 1e-9 and s.get("condition") == HEALTHY
+                for w in s.get("condition_warnings", ())
+            ]
         elif len({s.get("load_model", "healthy") for s in near}) > 1:
             # two load-state models answered the two sides: their difference is not a change
             warned.append("answered by different load-state models")
@@ -191,6 +199,11 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
         faulty.info.get("ranges") if faulty is not None else None,
         condition,
     )
+    if table.time_origin_utc is not None:
+        notes.append(
+            f"times are seconds after the record's first timestamp, {table.time_origin_utc} "
+            "(time_origin_utc)"
+        )
     if table.gaps:
         longest = max(table.gaps, key=lambda g: g[1] - g[0])
         notes.append(
@@ -222,6 +235,7 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
                 if refused.size
                 else None,
                 "interrupted": table.interrupted,
+                "time_origin_utc": table.time_origin_utc,
             },
             "settings": {
                 "window_s": settings.window_s,

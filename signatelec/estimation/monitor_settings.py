@@ -13,8 +13,9 @@ import pandas as pd
 from signatelec.config.bearing import Bearing, same_bearing
 from signatelec.estimation.diagnose import least_cage_revolutions
 from signatelec.estimation.health import CONDITION_EVERY_S
+from signatelec.measurement.band import MIN_BALL_PASSES
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
-from signatelec.measurement.traces import MIN_BALL_PASSES, TraceError, time_text
+from signatelec.measurement.traces import TraceError, time_text
 from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
 #: Default window and hop, s: 200 ms windows are the longest of the training windows

@@ -41,8 +41,9 @@ from signatelec.estimation.models import (
     LoadStateEstimator,
     LoadStateModel,
 )
+from signatelec.measurement.band import N_HARMONICS
 from signatelec.measurement.sanity import screen_trace
-from signatelec.measurement.traces import N_HARMONICS, TraceError, prepare_trace
+from signatelec.measurement.traces import TraceError, prepare_trace
 
 #: The trace features the model reads. The others are redundant for it (the median and the
 #: IQR repeat the mean and the MAD, the band powers around the harmonics and the harmonic

@@ -33,7 +33,7 @@ from signatelec.estimation.features import (
     spectrum_features,
     trace_features,
 )
-from signatelec.measurement.traces import N_HARMONICS
+from signatelec.measurement.band import N_HARMONICS
 
 
 class _TraceTransformer(TransformerMixin, BaseEstimator):

@@ -45,7 +45,8 @@ the nominal 0.2 % of the two searches.
    2 pi times smaller; rpm, 60 / (2 pi) times larger), which lie beyond the wide band (a
    speed in rpm puts the line at 0.105 f_bp, and its third harmonic inside the band, read as
    a line elsewhere at three times the speed): a ripple ``"found"`` there below
-   :data:`UNIT_FALSE_ALARM` is ``"elsewhere"``, naming the unit (``unit``).
+   :data:`UNIT_FALSE_ALARM`, and not at a mains hum's or the shaft's harmonic
+   (:func:`_interference`), is ``"elsewhere"``, naming the unit (``unit``).
 
 **Tolerance** on found / expected - 1: the cage slip the model knows, :data:`SLIP_RANGE` (DEM
 training runs), widened by :data:`OMEGA_TOLERANCE` (a tachometer's error on ``--omega``) and by
@@ -66,7 +67,7 @@ import numpy as np
 from scipy import fft as sfft
 from scipy import stats
 
-from signatelec.measurement.traces import MIN_BALL_PASSES, N_HARMONICS, SEARCH_REL, SPEED_UNITS
+from signatelec.measurement.band import MIN_BALL_PASSES, N_HARMONICS, SEARCH_REL, SPEED_UNITS
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: Zero padding of the periodogram (frequency grid 1 / (PAD T)).
@@ -106,6 +107,16 @@ ELSEWHERE_MIN_REL = 3e-4
 #: speed given in the wrong unit shows its line at false-alarm probabilities of 1e-20 and
 #: below on 0.1 s at 0.2 % noise).
 UNIT_FALSE_ALARM = 1e-6
+#: Mains frequencies, Hz: a line at one of their first :data:`INTERFERENCE_HARMONICS`
+#: harmonics, or at the shaft's (an unbalance), names no unit (a hum of 0.02 % at 50 Hz, in a
+#: trace at 582.7 rad/s whose ripple lies on a zero, sat where the speed read in rpm puts the
+#: ripple, and had been read as a speed in rpm).
+MAINS_HZ = (50.0, 60.0)
+INTERFERENCE_HARMONICS = 8
+#: How close a line is to an interference's line to be taken for it, relative (a grid's
+#: frequency wanders by ~0.1 %), widened by :data:`FREQUENCY_SIGMAS` standard errors of the
+#: line's frequency (the tolerance's rule).
+INTERFERENCE_REL = 0.005
 
 
 @functools.lru_cache(maxsize=4)
@@ -248,14 +259,9 @@ def find_ripple(
     ripple = _search(resistance_ohm, sample_rate_hz, omega_rad_s, n_harmonics, bearing)
     if not units or ripple.status not in ("elsewhere", "none"):
         return ripple
-    r = np.asarray(resistance_ohm, dtype=float)
-    duration = r.size / float(sample_rate_hz)
-    for unit, rad_s in SPEED_UNITS.items():
-        omega = omega_rad_s * rad_s
-        if duration * expected_ball_pass_hz(omega, bearing) < MIN_BALL_PASSES:
-            continue
-        there = _search(r, sample_rate_hz, omega, n_harmonics, bearing)
-        if there.status == "found" and there.false_alarm < UNIT_FALSE_ALARM:
+    for unit in SPEED_UNITS:
+        there = ripple_in_unit(resistance_ohm, sample_rate_hz, omega_rad_s, unit, bearing=bearing)
+        if there is not None:
             return Ripple(
                 "elsewhere",
                 omega_rad_s=ripple.omega_rad_s,
@@ -267,6 +273,47 @@ def find_ripple(
                 unit=unit,
             )
     return ripple
+
+
+def ripple_in_unit(
+    resistance_ohm,
+    sample_rate_hz: float,
+    omega_rad_s: float,
+    unit: str,
+    n_harmonics: int = N_HARMONICS,
+    bearing=None,
+) -> Ripple | None:
+    """The ripple at the speed ``omega_rad_s`` read in ``unit`` (:data:`SPEED_UNITS`) when
+    found there below :data:`UNIT_FALSE_ALARM` and at no interference's line
+    (:func:`_interference`), else None (also when the trace spans fewer than
+    :data:`MIN_BALL_PASSES` ball passes at that speed). Module rule 6."""
+    r = np.asarray(resistance_ohm, dtype=float)
+    duration = r.size / float(sample_rate_hz)
+    omega = omega_rad_s * SPEED_UNITS[unit]
+    if duration * expected_ball_pass_hz(omega, bearing) < MIN_BALL_PASSES:
+        return None
+    there = _search(r, sample_rate_hz, omega, n_harmonics, bearing)
+    if (
+        there.status == "found"
+        and there.false_alarm < UNIT_FALSE_ALARM
+        and not _interference(there, omega_rad_s, duration)
+    ):
+        return there
+    return None
+
+
+def _interference(line: Ripple, omega_rad_s: float, duration_s: float) -> bool:
+    """Whether a ``line`` found may be a mains hum's or the shaft's (at ``omega_rad_s``)
+    harmonic (:data:`MAINS_HZ`, :data:`INTERFERENCE_HARMONICS`, :data:`INTERFERENCE_REL`)."""
+    f_hz = line.frequency_hz
+    sigma = (
+        SIGMA_FACTOR * math.sqrt(6.0 / max(line.statistic, 1e-12)) / (2.0 * math.pi * duration_s)
+    )
+    for base in (*MAINS_HZ, omega_rad_s / (2.0 * math.pi)):
+        k = max(1, min(INTERFERENCE_HARMONICS, round(f_hz / base)))
+        if abs(f_hz - k * base) <= INTERFERENCE_REL * k * base + FREQUENCY_SIGMAS * sigma:
+            return True
+    return False
 
 
 def _search(

@@ -11,7 +11,7 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
    :data:`STEP_SIGMAS` times the block-to-block noise (robust, from first differences) and
    more than :data:`DRIFT_ALLOWANCE` of the level (five times the largest drift of the training
    traces, a random walk of 0.1 % at the end of the window). The steady part starts after the
-   last departing block and must span :data:`~signatelec.measurement.traces.MIN_BALL_PASSES`
+   last departing block and must span :data:`~signatelec.measurement.band.MIN_BALL_PASSES`
    (a trend moves the early blocks off the final level: it is cut off or refused alike).
    With a condition model (``defect_lines``), departures that recur through the trace (in
    :data:`RECURRENT_GROUPS` or more groups, not from its start, into its second half) are a
@@ -42,8 +42,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from signatelec.measurement.band import MIN_BALL_PASSES
 from signatelec.measurement.ripple import Ripple, find_ripple
-from signatelec.measurement.traces import MIN_BALL_PASSES, Trace, TraceError
+from signatelec.measurement.traces import Trace, TraceError
 from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
 #: A block mean this many block-noise sigmas off the steady level departs from it...

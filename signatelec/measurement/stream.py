@@ -22,9 +22,9 @@ a uniform grid), a repeated time beside a missing one, and jitter between its en
 
 CSV (maybe compressed by gzip, bzip2 or xz, decompressed as it is read) as blocks of whole
 lines parsed by pandas with the header of the file. The columns are
-checked and converted as :func:`signatelec.measurement.traces.read_trace` does
-(:func:`~signatelec.measurement.traces.check_columns`,
-:func:`~signatelec.measurement.traces.numeric_column`): one-line :class:`TraceError`.
+checked and converted as :func:`signatelec.measurement.files.read_trace` does
+(:func:`~signatelec.measurement.files.check_columns`,
+:func:`~signatelec.measurement.files.numeric_column`): one-line :class:`TraceError`.
 
 ``follow=True`` (CSV only: a Parquet file is unreadable until its writer closes it) keeps
 reading lines appended to the file, polling every ``poll_s``; it ends when the file has not
@@ -49,9 +49,8 @@ from pathlib import Path
 
 import numpy as np
 
-from signatelec.measurement.traces import (
-    JITTER_TOLERANCE,
-    TraceError,
+from signatelec.measurement.files import (
+    Clock,
     check_columns,
     csv_dialect,
     header_names,
@@ -59,6 +58,7 @@ from signatelec.measurement.traces import (
     open_csv,
     trace_format,
 )
+from signatelec.measurement.traces import JITTER_TOLERANCE, TraceError
 
 #: Rows per chunk: 2^18 rows of three float columns are 6 MB.
 CHUNK_ROWS = 1 << 18
@@ -94,15 +94,22 @@ class Chunk:
     resistance_ohm: np.ndarray
     speed_rad_s: np.ndarray | None
     first_row: int
+    #: The first timestamp of a time column of timestamps, whose times are seconds after it
+    #: (:class:`~signatelec.measurement.files.Clock`), as ISO 8601 text, UTC; else None.
+    origin_utc: str | None = None
 
 
 def _columns(time_column, resistance_column, speed_column) -> list[str]:
     return [time_column, resistance_column] + ([speed_column] if speed_column else [])
 
 
-def _chunk(df, names, where, first_row) -> Chunk:
-    values = [numeric_column(df[c], c, where, first_row, clock=c == names[0]) for c in names]
-    return Chunk(values[0], values[1], values[2] if len(values) > 2 else None, first_row)
+def _chunk(df, names, where, first_row, clock: Clock) -> Chunk:
+    values = [
+        numeric_column(df[c], c, where, first_row, clock=clock if i == 0 else None)
+        for i, c in enumerate(names)
+    ]
+    speed = values[2] if len(values) > 2 else None
+    return Chunk(values[0], values[1], speed, first_row, clock.origin_utc)
 
 
 def _time_leaf(pf, name: str) -> int | None:
@@ -187,6 +194,7 @@ def _parquet_file(path, names, where):
 
 def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
     pf = _parquet_file(path, names, where)
+    clock = Clock()
     leaf = _time_leaf(pf, names[0])
     row, step, last = 0, None, None  # the record's step and last time, from times read
     for group in range(pf.num_row_groups):
@@ -210,7 +218,7 @@ def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
             times = None
             if made is not None:
                 times = made[0] + made[1] * np.arange(offset, offset + part.num_rows, dtype=float)
-            chunk = _arrow_chunk(part, names, where, row, times)
+            chunk = _arrow_chunk(part, names, where, row, clock, times)
             if made is None:
                 extents.append(_extent(chunk.time_s))
             yield chunk
@@ -222,12 +230,12 @@ def _parquet_chunks(path, names, where, chunk_rows) -> Iterator[Chunk]:
             step, last = _record_step(extents, offset) or step, extents[-1][1]
 
 
-def _arrow_chunk(batch, names, where, first_row, time_s=None) -> Chunk:
+def _arrow_chunk(batch, names, where, first_row, clock: Clock, time_s=None) -> Chunk:
     """A chunk of a record batch or table slice: numeric columns cast to floats in Arrow
     (missing -> NaN), without the detour through pandas that costs ~0.1 us a row (a float
     column without missing values is not copied: read-only views of the Arrow buffers); any
     other column through
-    :func:`~signatelec.measurement.traces.numeric_column` (its one-line refusal of text).
+    :func:`~signatelec.measurement.files.numeric_column` (its one-line refusal of text).
     ``time_s``: the rows' times when the batch holds no time column (``names[0]``)."""
     import pyarrow as pa
     import pyarrow.compute as pc
@@ -238,7 +246,7 @@ def _arrow_chunk(batch, names, where, first_row, time_s=None) -> Chunk:
         frame = batch.to_pandas()
         if time_s is not None:
             frame[names[0]] = time_s
-        return _chunk(frame, names, where, first_row)
+        return _chunk(frame, names, where, first_row, clock)
     values = [pc.cast(c, pa.float64(), safe=False).to_numpy(zero_copy_only=False) for c in columns]
     if time_s is not None:
         values.insert(0, time_s)
@@ -337,7 +345,7 @@ def _csv_header(fh, names, where, follow, poll_s, idle_s) -> tuple[bytes, tuple[
 
 def _checked_header(header: bytes, after: bytes, names, where) -> tuple[str, str]:
     """The separator and decimal mark of a CSV header line
-    (:func:`~signatelec.measurement.traces.csv_dialect` of it and ``after``, the bytes that
+    (:func:`~signatelec.measurement.files.csv_dialect` of it and ``after``, the bytes that
     follow it), its columns checked."""
     import pandas as pd
 
@@ -418,7 +426,10 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
 
     block_bytes = 40 * chunk_rows  # ~40 bytes per line of three numbers
     header, (sep, decimal) = _csv_header(fh, names, where, follow, poll_s, idle_s)
+    clock = Clock()
     row, pending, idle_since = 0, b"", time.monotonic()
+    settled = False  # the dialect read again from the first lines parsed: a file followed
+    # from before its logger writes them has only its header when it is opened
     while True:
         data = _block(fh, block_bytes)
         if data:
@@ -438,6 +449,9 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
                 return
             time.sleep(poll_s)
             continue
+        if not settled:
+            sep, decimal = _checked_header(header, data[:4096], names, where)
+            settled = True
         try:
             df = pd.read_csv(
                 io.BytesIO(header + data),
@@ -451,13 +465,13 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
                 f"{where}: cannot be read as csv near row {row} ({_first(exc)})"
             ) from None
         if len(df):
-            yield _chunk(df, names, where, row)
+            yield _chunk(df, names, where, row, clock)
             row += len(df)
 
 
 def _checked(path, time_column, resistance_column, speed_column, follow):
     """(path, where, names, format, compression) of a trace file
-    (:func:`~signatelec.measurement.traces.trace_format`): refused if it is no file, of an
+    (:func:`~signatelec.measurement.files.trace_format`): refused if it is no file, of an
     unknown format, or asks one column twice; (None, ..., "csv", None) for standard input."""
     where = trace_label(path)
     names = _columns(time_column, resistance_column, speed_column)

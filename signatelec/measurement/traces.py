@@ -1,7 +1,8 @@
 """A measured resistance trace: read it, repair what is safe, refuse what is not.
 
-:func:`read_trace` reads a CSV or Parquet table with a time column (s) and a resistance column
-(ohm); :func:`prepare_trace` turns the two columns into a uniformly sampled, finite trace fit for
+:func:`~signatelec.measurement.files.read_trace` reads a CSV or Parquet table with a time column
+(s) and a resistance column (ohm); :func:`prepare_trace` turns the two columns into a uniformly
+sampled, finite trace fit for
 :mod:`signatelec.estimation.features`, or raises :class:`TraceError` with one line saying what is
 wrong.
 
@@ -30,31 +31,22 @@ Refused:
 - a median resistance below ``MIN_LEVEL_OHM`` (a column in another unit);
 - a trace shorter than ``MIN_BALL_PASSES`` ball passes at the given omega, or sampled below
   :func:`minimum_sample_rate_hz` (the harmonics would alias); the refusal asks whether the
-  speed was given in Hz or rpm (:data:`SPEED_UNITS`) when read so it would pass;
+  speed was given in Hz or rpm (:data:`SPEED_UNITS`) when read so it would pass and the
+  trace shows its ripple there;
 - omega not a finite speed > 0.
 """
 
 from __future__ import annotations
 
-import csv
 import math
-import re
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
 from signatelec.config.bearing import Bearing
 from signatelec.engines.results import PHASES
+from signatelec.measurement.band import MIN_BALL_PASSES, N_HARMONICS, SEARCH_REL, SPEED_UNITS
 from signatelec.physics.kinematics import expected_ball_pass_hz
-
-#: Harmonics of the ball-pass frequency the analysis fits by default (the quasi-static tier puts
-#: the 5th and higher below 0.01 % of the level over 0.1-0.4 C_r, epsilon 0.3-0.6).
-N_HARMONICS = 4
-#: Half-width of the search for the ball-pass frequency around the kinematic one: the cage slip
-#: of the DEM is -0.3 % to +0.1 %; a wider band lets noise peaks win for weak ripples.
-SEARCH_REL = 0.01
 
 
 def minimum_sample_rate_hz(
@@ -74,24 +66,21 @@ def minimum_sample_rate_hz(
     )
 
 
-#: Units a speed is given in by mistake, for rad/s: their size in rad/s.
-SPEED_UNITS = {"Hz": 2.0 * math.pi, "rpm": 2.0 * math.pi / 60.0}
-
-
-def unit_hint(omega_rad_s: float, passes) -> str:
+def unit_hint(r: np.ndarray, fs: float, omega_rad_s: float, bearing, passes) -> str:
     """A question naming the first unit of :data:`SPEED_UNITS` the speed would pass a check
-    in (``passes(omega_rad_s)`` true), for a refusal: '' if none."""
+    in (``passes(omega_rad_s)`` true) and at whose speed the trace ``r`` (uniform at ``fs``,
+    its missing samples left out) shows its ripple
+    (:func:`~signatelec.measurement.ripple.ripple_in_unit`), for a refusal: '' if none."""
+    from signatelec.measurement.ripple import ripple_in_unit
+
+    x = r[np.isfinite(r)]
     for unit, rad_s in SPEED_UNITS.items():
-        if passes(omega_rad_s * rad_s):
-            return (
-                f"; was the speed given in {unit}? ({omega_rad_s:g} {unit} is "
-                f"{omega_rad_s * rad_s:.4g} rad/s)"
-            )
+        alt = omega_rad_s * rad_s
+        if passes(alt) and ripple_in_unit(x, fs, omega_rad_s, unit, bearing=bearing) is not None:
+            return f"; was the speed given in {unit}? ({omega_rad_s:g} {unit} is {alt:.4g} rad/s)"
     return ""
 
 
-#: Shortest trace, in ball passes (the harmonics need a few periods to stand out of the noise).
-MIN_BALL_PASSES = 5.0
 #: Largest share of samples that may be missing (NaN, no time) and filled in.
 MAX_BAD_FRACTION = 0.05
 #: Largest share of open-circuit samples (inf or <= 0 ohm) that may be filled in.
@@ -135,209 +124,6 @@ class Trace:
 
 #: The phase of a simulation's output that is a running bearing's trace.
 STEADY_PHASE = PHASES[-1]
-
-
-class TraceColumns(NamedTuple):
-    """The columns of a trace file: time (s), resistance (ohm), and the simulation phase of
-    each row when the file has a ``phase`` column (else None)."""
-
-    time_s: np.ndarray
-    resistance_ohm: np.ndarray
-    phase: np.ndarray | None = None
-
-
-def check_columns(columns, wanted, where: str, options: dict | None = None) -> None:
-    """TraceError naming the first of ``wanted`` missing from ``columns``, or found more than
-    once (a CSV file's :func:`header_names`, not pandas' renamed columns), and the option that
-    names it (``options``: column -> option; by default the time and resistance options,
-    whatever the names given, in the order time, resistance, then ``--speed-column``)."""
-    columns = list(columns)
-    default = ("--time-column", "--resistance-column", "--speed-column")
-    for i, column in enumerate(wanted):
-        if columns.count(column) > 1:
-            raise TraceError(
-                f"{where}: {columns.count(column)} columns named {column!r}; which one is meant "
-                "cannot be told: give each column its own name"
-            )
-        if column not in columns:
-            option = (options or {}).get(column, default[min(i, len(default) - 1)])
-            # repr: a name holding a line break or control character stays on the one line
-            have = ", ".join(map(repr, columns[:8])) + (", ..." if len(columns) > 8 else "")
-            raise TraceError(
-                f"{where}: no column {column!r} (columns: {have or 'none'}); name it with {option}"
-            )
-
-
-def header_names(source, **read_csv) -> list[str]:
-    """The names of a CSV file's header as written (a frame's columns rename a repeated "x" to
-    "x.1", "x.2", ..., which a real name may also be): its first row read as text."""
-    import pandas as pd
-
-    row = pd.read_csv(source, header=None, nrows=1, dtype=str, keep_default_na=False, **read_csv)
-    return [str(c) for c in row.iloc[0]] if len(row) else []
-
-
-#: A number written with a decimal comma (a spreadsheet's export in a European locale).
-_DECIMAL_COMMA = re.compile(r"^\s*[-+]?(\d+,\d*|,\d+)([eE][-+]?\d+)?\s*$")
-
-
-def csv_dialect(head: bytes) -> tuple[str, str]:
-    """(separator, decimal mark) of a CSV file from its first bytes: the separator sniffed
-    among ``, ; tab space`` from its first 20 lines that are not comments (``,`` when the
-    sniffer finds none); the decimal mark ``,`` when the separator is not one and a cell of
-    those lines is a number written with a decimal comma (``0,0025;...``, a spreadsheet's
-    export in a European locale), else ``.``."""
-    lines = [x for x in head.decode("utf-8", "replace").splitlines() if not x.startswith("#")]
-    lines = lines[:20]
-    try:
-        sep = csv.Sniffer().sniff("\n".join(lines), delimiters=",;\t ").delimiter
-    except csv.Error:
-        sep = ","
-    comma = sep != "," and any(
-        _DECIMAL_COMMA.match(cell) for line in lines[1:] for cell in line.split(sep)
-    )
-    return sep, "," if comma else "."
-
-
-def _refuse_text(raw, read, column: str, where: str, first_row: int, allowed: str) -> None:
-    """TraceError naming the first cell of ``raw`` that ``read`` (its reading, NaN or NaT
-    where it failed) could not read and that is neither empty nor "nan"."""
-    text = read.isna() & raw.notna()
-    if text.any():
-        text &= ~raw.astype(str).str.strip().str.lower().isin(("nan", ""))
-    if text.any():
-        row = int(np.flatnonzero(text.to_numpy())[0])
-        raise TraceError(
-            f"{where}: column {column!r} holds text at row {first_row + row} "
-            f"({str(raw.iloc[row])[:20]!r}); {allowed} only (empty or nan for a missing sample)"
-        )
-
-
-def _seconds(raw, column: str, where: str, first_row: int) -> np.ndarray | None:
-    """A time column of timestamps or durations as seconds, or None when it holds numbers:
-    datetime64 (a Parquet timestamp, tz-aware or not) and ISO 8601 text as seconds since
-    1970-01-01 UTC (a time without zone read as UTC), timedelta64 as seconds; missing -> NaN.
-    Text that is neither a number nor a timestamp is refused naming its row."""
-    import pandas as pd
-
-    kind = raw.dtype
-    if pd.api.types.is_timedelta64_dtype(kind):
-        return raw.dt.total_seconds().to_numpy(dtype=float)
-    if not pd.api.types.is_datetime64_any_dtype(kind):
-        if not (pd.api.types.is_object_dtype(kind) or pd.api.types.is_string_dtype(kind)):
-            return None
-        cells = raw.dropna().astype(str).str.strip()
-        cells = cells[~cells.str.lower().isin(("nan", ""))]
-        try:
-            float(cells.iloc[0]) if len(cells) else 0.0
-            return None  # numbers (or text refused as such)
-        except ValueError:
-            pass
-        stamps = pd.to_datetime(raw, format="ISO8601", utc=True, errors="coerce")
-        if stamps.isna().all():
-            return None
-        _refuse_text(raw, stamps, column, where, first_row, "seconds or ISO 8601 timestamps")
-        raw = stamps
-    if isinstance(raw.dtype, pd.DatetimeTZDtype):
-        raw = raw.dt.tz_convert("UTC").dt.tz_localize(None)
-    ns = raw.to_numpy("datetime64[ns]")
-    out = ns.astype(np.int64) / 1e9
-    out[np.isnat(ns)] = np.nan
-    return out
-
-
-def numeric_column(
-    raw, column: str, where: str, first_row: int = 0, clock: bool = False
-) -> np.ndarray:
-    """A column as floats: empty cells and "nan" become NaN (missing samples, repaired or
-    refused later), other text is refused naming its row (counted from ``first_row``).
-    ``clock``: the time column, whose timestamps or durations are read as seconds
-    (:func:`_seconds`)."""
-    import pandas as pd
-
-    if clock and (seconds := _seconds(raw, column, where, first_row)) is not None:
-        return seconds
-    try:
-        number = pd.to_numeric(raw, errors="coerce")
-    except OverflowError:  # an integer cell beyond the float range, read as a Python int
-        number = pd.to_numeric(raw.astype(str), errors="coerce")  # +-inf, as "1e400" is
-    _refuse_text(raw, number, column, where, first_row, "numbers")
-    return number.to_numpy(dtype=float)
-
-
-#: Suffixes of a trace file of each format.
-PARQUET_SUFFIXES = (".parquet", ".pq")
-CSV_SUFFIXES = (".csv", ".txt", ".tsv")
-#: Compressions a CSV file may be written with (a logger's long records): its last suffix.
-COMPRESSED_SUFFIXES = (".gz", ".bz2", ".xz")
-
-
-def trace_format(path: Path, where: str) -> tuple[str, str | None]:
-    """("csv" or "parquet", the compression's suffix or None) of a trace file, from its
-    suffixes (a CSV file compressed by gzip, bzip2 or xz: ``.csv.gz``, ``.csv.bz2``,
-    ``.csv.xz``), or TraceError naming the format that is not known."""
-    suffixes = [x.lower() for x in path.suffixes[-2:]]
-    last = suffixes[-1] if suffixes else ""
-    if last in PARQUET_SUFFIXES:
-        return "parquet", None
-    if last in CSV_SUFFIXES:
-        return "csv", None
-    if last in COMPRESSED_SUFFIXES and len(suffixes) == 2 and suffixes[0] in CSV_SUFFIXES:
-        return "csv", last
-    name = "".join(suffixes) if last in COMPRESSED_SUFFIXES else last
-    raise TraceError(
-        f"{where}: unknown format {name or '(none)'!r}; give .csv or .parquet (a CSV file may be "
-        f"compressed: {', '.join('.csv' + c for c in COMPRESSED_SUFFIXES)})"
-    )
-
-
-def open_csv(path: Path, compression: str | None):
-    """A CSV trace file opened for reading bytes, decompressed as it is read."""
-    import bz2
-    import gzip
-    import lzma
-
-    opener = {None: open, ".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}[compression]
-    return opener(path, "rb")
-
-
-def read_trace(
-    path: str | Path,
-    time_column: str = "time_s",
-    resistance_column: str = "resistance_ohm",
-    phase_column: str = "phase",
-) -> TraceColumns:
-    """The time and resistance columns of a CSV (``.csv``, ``.txt``, ``.tsv``, maybe compressed:
-    :func:`trace_format`) or Parquet file, as floats
-    (cells that are not numbers become NaN), and its ``phase_column`` if it has one. Raises
-    TraceError naming the file."""
-    import pandas as pd
-
-    p = Path(path)
-    where = f"trace {str(path)!r}"
-    if not p.is_file():
-        raise TraceError(f"{where}: no such file")
-    kind, compression = trace_format(p, where)
-    try:
-        if kind == "parquet":
-            df = pd.read_parquet(p)
-        else:
-            with open_csv(p, compression) as fh:
-                sep, decimal = csv_dialect(fh.read(1 << 16))
-            df = pd.read_csv(p, sep=sep, decimal=decimal, comment="#")
-    except (OSError, EOFError, ValueError, pd.errors.ParserError, csv.Error) as exc:
-        # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell);
-        # OSError, EOFError: a damaged or truncated compressed file
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise TraceError(f"{where}: cannot be read as {kind}{compression or ''} ({text})") from None
-    wanted = (time_column, resistance_column)
-    if kind == "parquet":
-        check_columns(df.columns, wanted, where)
-    else:
-        check_columns(header_names(p, sep=sep, comment="#"), wanted, where)
-    values = [numeric_column(df[c], c, where, clock=c == time_column) for c in wanted]
-    phase = df[phase_column].astype(str).to_numpy() if phase_column in df.columns else None
-    return TraceColumns(values[0], values[1], phase)
 
 
 def time_text(t_s: float) -> str:
@@ -444,7 +230,13 @@ def prepare_trace(
     # before the gaps: at a speed too high for the rate every step is a gap of the ripple
     fs_min = minimum_sample_rate_hz(omega_rad_s, bearing=bearing)
     if fs < fs_min:
-        hint = unit_hint(omega_rad_s, lambda om: fs >= minimum_sample_rate_hz(om, bearing=bearing))
+        hint = unit_hint(
+            r,
+            fs,
+            omega_rad_s,
+            bearing,
+            lambda om: fs >= minimum_sample_rate_hz(om, bearing=bearing),
+        )
         raise TraceError(
             f"{where}: sampled at {fs:.6g} Hz, below the {fs_min:.4g} Hz needed at "
             f"{omega_rad_s:g} rad/s (the ball-pass harmonics the estimate reads would "
@@ -529,7 +321,10 @@ def prepare_trace(
     passes = duration * f_bp
     if passes < min_ball_passes:
         hint = unit_hint(
+            r,
+            fs,
             omega_rad_s,
+            bearing,
             lambda om: (
                 duration * expected_ball_pass_hz(om, bearing) >= min_ball_passes
                 and fs >= minimum_sample_rate_hz(om, bearing=bearing)

@@ -51,8 +51,8 @@ from signatelec.estimation.training import (
     train_model,
 )
 from signatelec.io import write_bytes_atomic
+from signatelec.measurement.band import MIN_BALL_PASSES
 from signatelec.measurement.model import MeasurementDraw, MeasurementModel
-from signatelec.measurement.traces import MIN_BALL_PASSES
 from signatelec.physics.kinematics import expected_ball_pass_hz
 from signatelec.studies.load_state_metrics import (
     ACCEPT_DRIFT,
