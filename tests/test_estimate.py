@@ -594,6 +594,12 @@ def test_estimate_reads_spreadsheet_and_logger_formats(small_model, tmp_path, ca
         answers[f"holed_{name}"] = json.loads(out.read_text())["radial_load_n"]
     assert answers["holed_stamps.parquet"] == pytest.approx(answers["holed_holed.csv"], rel=1e-9)
     assert answers["holed_iso.csv"] == pytest.approx(answers["holed_holed.csv"], rel=1e-9)
+    # a logger's note column in its own code page (Latin-1): not read, no matter
+    noted = _example().assign(note="Lager \xe4")
+    noted.to_csv(tmp_path / "noted.csv", index=False, encoding="latin-1")
+    out = tmp_path / "noted.json"
+    assert _run(["estimate", str(tmp_path / "noted.csv"), *args, "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["radial_load_n"] == answers["example"]
     bad = pd.read_csv(tmp_path / "iso.csv")
     bad.loc[700, "time_s"] = "soon"
     bad.to_csv(tmp_path / "bad.csv", index=False)
@@ -673,6 +679,14 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
     p = tmp / "folder.csv"
     p.mkdir()
     cases["directory"] = (p, "trace")
+    p = tmp / "stamped.parquet"  # timestamps where the resistance is asked
+    pd.DataFrame(
+        {"time_s": t, "resistance_ohm": pd.Timestamp(0) + pd.to_timedelta(t, "s")}
+    ).to_parquet(p)
+    cases["timestamps_for_resistance"] = (p, "column 'resistance_ohm' holds timestamps")
+    p = tmp / "latin.csv"  # a byte that is not UTF-8 in the resistance column
+    p.write_bytes(b"time_s,resistance_ohm\n0,0.0025\n5e-5,0.0025\xe4\n")
+    cases["latin1_in_column"] = (p, "column 'resistance_ohm' holds text at row 1")
     return cases
 
 
@@ -693,6 +707,8 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
         "text_in_column",
         "truncated_parquet",
         "directory",
+        "timestamps_for_resistance",
+        "latin1_in_column",
     ],
 )
 def test_estimate_refuses(small_model, tmp_path, capsys, case):

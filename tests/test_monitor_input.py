@@ -116,6 +116,19 @@ def test_a_damaged_compressed_file_is_refused_in_one_line(tmp_path, compression)
         read_chunks(path, follow=True)
 
 
+def test_a_time_column_without_a_time_is_named(tmp_path):
+    """Every time missing (a logger's timestamps all NaT): named, where the record had been
+    called shorter than a window; timestamps where the resistance is asked: named."""
+    path = tmp_path / "nat.parquet"
+    stamps = pd.Series(pd.NaT, index=range(2000), dtype="datetime64[ns]")
+    pd.DataFrame({"time_s": stamps, "resistance_ohm": np.full(2000, 3e-3)}).to_parquet(path)
+    assert _refused(path, omega_rad_s=OMEGA).endswith("no time in its 2000 rows")
+    message = _refused(
+        path, omega_rad_s=OMEGA, resistance_column="time_s", time_column="resistance_ohm"
+    )
+    assert "column 'time_s' holds timestamps or durations; numbers only" in message
+
+
 def test_binary_file_given_as_csv(tmp_path):
     """Bytes that are no text: one line (was a UnicodeDecodeError traceback from pandas)."""
     path = tmp_path / "noise.csv"

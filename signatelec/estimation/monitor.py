@@ -198,6 +198,8 @@ class _Windows:
         return t, at, r, v
 
     def finish(self) -> None:
+        if self.fs is None and self.t.size and not np.isfinite(self.t).any():
+            raise TraceError(f"{self.source}: no time in its {self.t.size} rows")
         while self.fs is not None and self._block(final=True):
             pass
         self._assess_last_usable()

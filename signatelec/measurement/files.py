@@ -178,6 +178,10 @@ def numeric_column(
         and (seconds := _seconds(raw, column, where, first_row, clock)) is not None
     ):
         return seconds
+    if pd.api.types.is_datetime64_any_dtype(raw.dtype) or pd.api.types.is_timedelta64_dtype(
+        raw.dtype
+    ):
+        raise TraceError(f"{where}: column {column!r} holds timestamps or durations; numbers only")
     try:
         number = pd.to_numeric(raw, errors="coerce")
     except OverflowError:  # an integer cell beyond the float range, read as a Python int
@@ -245,7 +249,10 @@ def read_trace(
         else:
             with open_csv(p, compression) as fh:
                 sep, decimal = csv_dialect(fh.read(1 << 16))
-            df = pd.read_csv(p, sep=sep, decimal=decimal, comment="#")
+            # (a byte that is not UTF-8 in a column not read, a logger's note, is no matter; in
+            # one that is read, it is text there, refused as such)
+            df = pd.read_csv(p, sep=sep, decimal=decimal, comment="#", encoding_errors="replace")
+            header = header_names(p, sep=sep, comment="#")  # (UTF-8, as the monitor reads it)
     except (OSError, EOFError, ValueError, pd.errors.ParserError, csv.Error) as exc:
         # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell);
         # OSError, EOFError: a damaged or truncated compressed file
@@ -255,7 +262,7 @@ def read_trace(
     if kind == "parquet":
         check_columns(df.columns, wanted, where)
     else:
-        check_columns(header_names(p, sep=sep, comment="#"), wanted, where)
+        check_columns(header, wanted, where)
     clock = Clock()
     values = [
         numeric_column(df[c], c, where, clock=clock if i == 0 else None)

@@ -459,6 +459,7 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
                 decimal=decimal,
                 comment="#",
                 usecols=list(names),
+                encoding_errors="replace",
             )
         except (ValueError, pd.errors.ParserError) as exc:
             raise TraceError(
