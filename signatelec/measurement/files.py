@@ -130,14 +130,15 @@ def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.n
     if not pd.api.types.is_datetime64_any_dtype(kind):
         if not (pd.api.types.is_object_dtype(kind) or pd.api.types.is_string_dtype(kind)):
             return None
-        cells = raw.dropna().astype(str).str.strip()
-        cells = cells[~cells.str.lower().isin(("nan", ""))]
+        # the first cell that holds something (the others are read alike)
+        cells = (str(c).strip() for c in raw if c is not None and c == c)
+        first = next((c for c in cells if c.lower() not in ("nan", "")), "0")
         try:
-            float(cells.iloc[0]) if len(cells) else 0.0
+            float(first)
             return None  # numbers (or text refused as such)
         except ValueError:
             pass
-        if len(cells) and _COMMA_FRACTION.search(cells.iloc[0]):
+        if _COMMA_FRACTION.search(first):
             raw = raw.str.replace(_COMMA_FRACTION, r"\1.\2", regex=True)
         stamps = pd.to_datetime(raw, format="ISO8601", utc=True, errors="coerce")
         if stamps.isna().all():  # a time of day ('10:00:00.5') or a duration, as seconds

@@ -306,14 +306,18 @@ def _interference(line: Ripple, omega_rad_s: float, duration_s: float) -> bool:
     """Whether a ``line`` found may be a mains hum's or the shaft's (at ``omega_rad_s``)
     harmonic (:data:`MAINS_HZ`, :data:`INTERFERENCE_HARMONICS`, :data:`INTERFERENCE_REL`)."""
     f_hz = line.frequency_hz
-    sigma = (
-        SIGMA_FACTOR * math.sqrt(6.0 / max(line.statistic, 1e-12)) / (2.0 * math.pi * duration_s)
-    )
+    sigma = _sigma_hz(line.statistic, duration_s)
     for base in (*MAINS_HZ, omega_rad_s / (2.0 * math.pi)):
         k = max(1, min(INTERFERENCE_HARMONICS, round(f_hz / base)))
         if abs(f_hz - k * base) <= INTERFERENCE_REL * k * base + FREQUENCY_SIGMAS * sigma:
             return True
     return False
+
+
+def _sigma_hz(statistic: float, duration_s: float) -> float:
+    """Standard error of a found line's frequency: :data:`SIGMA_FACTOR` times the Cramer-Rao
+    bound sqrt(6 / z) / (2 pi T) (module docstring, Tolerance)."""
+    return SIGMA_FACTOR * math.sqrt(6.0 / max(statistic, 1e-12)) / (2.0 * math.pi * duration_s)
 
 
 def _search(
@@ -352,8 +356,7 @@ def _search(
         return np.interp(np.asarray(freqs) / df, bins, z)
 
     def tolerance(statistic: float, k: int = 1) -> tuple[float, float]:
-        sigma = SIGMA_FACTOR * math.sqrt(6.0 / max(statistic, 1e-12)) / (2.0 * math.pi * duration)
-        extra = OMEGA_TOLERANCE + FREQUENCY_SIGMAS * sigma / (k * f_exp)
+        extra = OMEGA_TOLERANCE + FREQUENCY_SIGMAS * _sigma_hz(statistic, duration) / (k * f_exp)
         return SLIP_RANGE[0] - extra, SLIP_RANGE[1] + extra
 
     def within(f: float, statistic: float, k: int = 1) -> tuple[bool, tuple[float, float]]:

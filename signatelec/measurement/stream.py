@@ -425,11 +425,11 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
     import pandas as pd
 
     block_bytes = 40 * chunk_rows  # ~40 bytes per line of three numbers
-    header, (sep, decimal) = _csv_header(fh, names, where, follow, poll_s, idle_s)
+    header, _ = _csv_header(fh, names, where, follow, poll_s, idle_s)
     clock = Clock()
     row, pending, idle_since = 0, b"", time.monotonic()
-    settled = False  # the dialect read again from the first lines parsed: a file followed
-    # from before its logger writes them has only its header when it is opened
+    dialect = None  # read from the first lines parsed: a file followed from before its logger
+    # writes them has only its header when it is opened
     while True:
         data = _block(fh, block_bytes)
         if data:
@@ -449,9 +449,9 @@ def _csv_rows(fh, names, where, chunk_rows, follow, poll_s, idle_s) -> Iterator[
                 return
             time.sleep(poll_s)
             continue
-        if not settled:
-            sep, decimal = _checked_header(header, data[:4096], names, where)
-            settled = True
+        if dialect is None:
+            dialect = _checked_header(header, data[:4096], names, where)
+        sep, decimal = dialect
         try:
             df = pd.read_csv(
                 io.BytesIO(header + data),
