@@ -129,6 +129,24 @@ def test_a_time_column_without_a_time_is_named(tmp_path):
     assert "column 'time_s' holds timestamps or durations; numbers only" in message
 
 
+@pytest.mark.parametrize("back_s", [3600.0, 1800.0])
+def test_a_clock_set_back_an_hour_is_named_as_daylight_saving(tmp_path, back_s):
+    """Local timestamps without a zone (read as UTC) across the autumn's change: the time goes
+    back an hour within the first block, refused naming daylight saving and what to give (a
+    step back of half an hour is not named so), by the monitor and by prepare_trace alike."""
+    t = np.arange(int(2 * FS)) / FS
+    t[int(FS) :] -= back_s
+    stamps = pd.Timestamp("2026-10-25 02:59:59") + pd.to_timedelta(np.round(t * 1e9), unit="ns")
+    path = tmp_path / "autumn.parquet"
+    pd.DataFrame({"time_s": stamps, "resistance_ohm": np.full(t.size, 3e-3)}).to_parquet(path)
+    named = "a local clock changed for daylight saving? give its timestamps with their UTC offset"
+    with pytest.raises(TraceError) as info:
+        prepare_trace(t, np.full(t.size, 3e-3), OMEGA)
+    for message in (_refused(path, omega_rad_s=OMEGA), str(info.value)):
+        assert "time does not increase at row 20000" in message
+        assert (named in message) is (back_s == 3600.0), message
+
+
 def test_binary_file_given_as_csv(tmp_path):
     """Bytes that are no text: one line (was a UnicodeDecodeError traceback from pandas)."""
     path = tmp_path / "noise.csv"

@@ -27,7 +27,7 @@ import pandas as pd
 from signatelec._version import __version__
 from signatelec.config.bearing import same_bearing
 from signatelec.config.constraints import HEALTHY
-from signatelec.measurement.traces import time_text
+from signatelec.measurement.traces import daylight_saving, time_text
 
 FILES = ("windows.parquet", "summary.json", "monitor.png")
 COMMAND = "monitor"
@@ -210,7 +210,8 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
             f"{len(table.gaps)} gap{'s' if len(table.gaps) > 1 else ''} in the record (no "
             "sample for longer than a quarter of a ball pass), "
             f"{sum(b - a for a, b in table.gaps):.6g} s in all, the longest from t = "
-            f"{time_text(longest[0])} to {time_text(longest[1])} s: the windows there carry no "
+            f"{time_text(longest[0])} to {time_text(longest[1])} s"
+            f"{daylight_saving(longest[1] - longest[0])}: the windows there carry no "
             "estimate ('no data'), a change found across a gap is timed at its end ('gap_s'), "
             "and a stretch over one was not observed there ('unobserved_s')"
         )

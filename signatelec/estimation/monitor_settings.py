@@ -15,7 +15,7 @@ from signatelec.estimation.diagnose import least_cage_revolutions
 from signatelec.estimation.health import CONDITION_EVERY_S
 from signatelec.measurement.band import MIN_BALL_PASSES
 from signatelec.measurement.stream import CHUNK_ROWS, is_standard_input
-from signatelec.measurement.traces import TraceError, time_text
+from signatelec.measurement.traces import TraceError, daylight_saving, time_text
 from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
 #: Default window and hop, s: 200 ms windows are the longest of the training windows
@@ -348,7 +348,7 @@ def in_time_order(chunk, last_time: float, first_time: float | None, block_span:
         before = last_time if back[0] == 0 else float(timed[back[0] - 1])
         what = (
             f"time does not increase at row {chunk.first_row + i} (t = {before:.9g} s, "
-            f"then {t[i]:.9g} s)"
+            f"then {t[i]:.9g} s){daylight_saving(t[i] - before)}"
         )
         if before < first_time + block_span:  # the first block is refused
             raise TraceError(f"{source}: {what}; sort the trace or remove repeated times")

@@ -126,6 +126,18 @@ class Trace:
 STEADY_PHASE = PHASES[-1]
 
 
+def daylight_saving(jump_s: float) -> str:
+    """For a message on a time that jumps by ``jump_s``: a clause naming a local clock's change
+    for daylight saving when the jump is an hour, to within a second (timestamps without a
+    zone are read as UTC), else ''."""
+    if abs(abs(jump_s) - 3600.0) > 1.0:
+        return ""
+    return (
+        f" (the time {'goes back' if jump_s < 0 else 'jumps'} an hour: a local clock changed "
+        "for daylight saving? give its timestamps with their UTC offset)"
+    )
+
+
 def time_text(t_s: float) -> str:
     """A time in seconds as messages give it: to the microsecond, trailing zeros dropped (a
     logger's clock may read 1.7e9 s, where 6 significant digits say nothing)."""
@@ -222,6 +234,7 @@ def prepare_trace(
         raise TraceError(
             f"{where}: time does not increase at row {i + 1} (t = {t[i]:.9g} s, then "
             f"{t[i + 1]:.9g} s); sort the trace or remove repeated times"
+            f"{daylight_saving(t[i + 1] - t[i])}"
         )
     step = sampling_step(t, dt, dt_min, dt_max)
     fs = 1.0 / step
