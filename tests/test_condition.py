@@ -382,7 +382,8 @@ def test_a_healthy_call_outside_the_training_speeds_is_not_confident(model_file,
 
 def test_the_training_speeds_are_read_with_a_margin_and_as_a_span():
     """The range is the runs' drawn speeds (300.1-698.9 rad/s of the design's 300-700): within
-    1 % of it a speed is inside; a span of assessments' speeds is outside if any part is."""
+    1 % of it a speed is inside (the design's bounds are); a span of assessments' speeds is
+    outside if any part is; a NaN speed is outside."""
     from types import SimpleNamespace
 
     from signatelec.estimation.diagnose import speed_warning
@@ -393,6 +394,14 @@ def test_the_training_speeds_are_read_with_a_margin_and_as_a_span():
     assert speed_warning(model, 290.0, "outer").endswith("300.133-698.892 rad/s: extrapolating")
     assert speed_warning(model, (500.0, 900.0), "healthy").startswith("omega 500-900 rad/s is")
     assert "a healthy call there is not confident" in speed_warning(model, 900.0, "healthy")
+    # the same rule for a load-state model (its runs' 250.1-750.0 of 250-750 rad/s)
+    from signatelec.estimation.domain import outside_speeds
+
+    load = {"omega_rad_s": [250.148, 749.992]}
+    assert outside_speeds(load, 250.0) is None and outside_speeds(load, 755.0) is None
+    assert outside_speeds(load, 240.0) == (250.148, 749.992)
+    assert outside_speeds(load, float("nan")) == (250.148, 749.992)
+    assert outside_speeds(None, 2000.0) is None
 
 
 @pytest.mark.parametrize("omega", [150.0, 1000.0])

@@ -37,7 +37,7 @@ from signatelec.config.bearing import Bearing
 from signatelec.config.constraints import HEALTHY
 from signatelec.estimation.condition import CONDITIONS, PROBABILITY, SEVERITY_TARGET, SPALLS
 from signatelec.estimation.condition_features import condition_features
-from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
+from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE, outside_speeds
 from signatelec.estimation.envelope import MIN_CAGE_REVOLUTIONS, analyse_envelope
 
 #: A condition call at or above this probability is confident.
@@ -90,23 +90,18 @@ def matched_line(condition: str, analysis) -> dict:
     }
 
 
-#: A speed within this share of the condition model's training range counts as inside it (the
-#: runs' speeds are drawn from the design's range: the default model's span 300.1-698.9 of
-#: 300-700 rad/s).
-RANGE_MARGIN = 0.01
-
-
 def speed_warning(model, omega_rad_s, call: str | None) -> str | None:
     """The warning of a condition ``call`` at a speed, or the speeds (low, high) of several
-    assessments, outside the condition ``model``'s training range widened by
-    :data:`RANGE_MARGIN` (None within it, or without a range): an extrapolation, and a
-    healthy call is not confident there (:data:`OUTSIDE_SPEEDS`)."""
-    lo, hi = model.info.get("ranges", {}).get("omega_rad_s", (None, None))
-    if lo is None or omega_rad_s is None:
+    assessments, outside the condition ``model``'s training range
+    (:func:`~signatelec.estimation.domain.outside_speeds`; None within it, or without a
+    range): an extrapolation, and a healthy call is not confident there
+    (:data:`OUTSIDE_SPEEDS`)."""
+    if omega_rad_s is None:
         return None
     low, high = (omega_rad_s, omega_rad_s) if np.isscalar(omega_rad_s) else omega_rad_s
-    if (1.0 - RANGE_MARGIN) * lo <= low and high <= (1.0 + RANGE_MARGIN) * hi:
+    if (speeds := outside_speeds(model.info.get("ranges"), low, high)) is None:
         return None
+    lo, hi = speeds
     speed = f"{low:g}" if low == high else f"{low:g}-{high:g}"
     return (
         f"omega {speed} rad/s is outside the condition model's training range {lo:g}-{hi:g} "

@@ -48,6 +48,25 @@ REFUSE_SCORE = 1e-6
 NO_LINE_REFUSE_SCORE = 1e-3
 
 
+#: A speed within this share of a model's training speeds counts as inside them: the runs'
+#: speeds are drawn within the design's bounds (the default load-state model's 250.1-750.0 of
+#: 250-750 rad/s, its condition model's 300.1-698.9 of 300-700).
+SPEED_MARGIN = 0.01
+
+
+def outside_speeds(ranges: dict | None, low: float | None, high: float | None = None):
+    """The training speeds (lo, hi) in a model's ``ranges`` (``info["ranges"]``, its
+    ``omega_rad_s``) when the speed ``low`` (or the span ``low``-``high``) leaves them widened
+    by :data:`SPEED_MARGIN` (a NaN speed leaves them); None when it stays inside, or without a
+    range or a speed."""
+    lo, hi = (ranges or {}).get("omega_rad_s", (None, None))
+    if lo is None or low is None:
+        return None
+    high = low if high is None else high
+    inside = (1.0 - SPEED_MARGIN) * lo <= low and high <= (1.0 + SPEED_MARGIN) * hi
+    return None if inside else (lo, hi)
+
+
 def refuse_score(has_line: bool) -> float:
     """The in-domain score below which a window is refused: :data:`REFUSE_SCORE`, or
     :data:`NO_LINE_REFUSE_SCORE` when the sanity layer found no ball-pass line in it."""

@@ -46,6 +46,7 @@ from signatelec.estimation.domain import (
     REFUSE_SCORE,
     WARN_SCORE,
     DomainError,
+    outside_speeds,
 )
 from signatelec.estimation.features import trace_features
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
@@ -202,9 +203,8 @@ def _confident_fault(condition: dict) -> bool:
 def _result(out, notes, trace, feats, ripple, model, omega_rad_s=None, answered=None) -> dict:
     """The estimate with its notes, the trace's figures and the model's summary; ``omega_rad_s``
     checked against the training range of the load-state model that ``answered``."""
-    ranges = (answered or model).info.get("ranges", {})
-    lo, hi = ranges.get("omega_rad_s", (None, None))
-    if omega_rad_s is not None and lo is not None and not lo <= omega_rad_s <= hi:
+    if (speeds := outside_speeds((answered or model).info.get("ranges"), omega_rad_s)) is not None:
+        lo, hi = speeds
         notes.append(
             f"omega {omega_rad_s:g} rad/s is outside the training range {lo:g}-{hi:g} rad/s: "
             "extrapolating, so no regime call is confident"

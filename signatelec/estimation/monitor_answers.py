@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from signatelec.estimation.domain import refuse_score
+from signatelec.estimation.domain import outside_speeds, refuse_score
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.features import analysis_options, trace_feature_names
 from signatelec.estimation.health import defect_explains
@@ -148,7 +148,7 @@ def estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateMo
         scores = model.domain.scores(table[:, [column[name] for name in model.domain.features]])
     coverage = model.info.get("coverage", DEFAULT_COVERAGE)
     # a speed outside the training range is an extrapolation: no regime call is confident there
-    lo, hi = model.info.get("ranges", {}).get("omega_rad_s", (-math.inf, math.inf))
+    ranges = model.info.get("ranges")
     probs = [c for c in pred if c.startswith("regime_probability_")]
     names, values = list(pred), [v.tolist() for v in pred.values()]
     for i, row in enumerate(rows):
@@ -158,7 +158,7 @@ def estimate_batch(rows: list[dict], feats: list[np.ndarray], model: LoadStateMo
         if probs:
             top = max(out[c] for c in probs)
             line = row["ripple"] not in ("none", "unconfirmed")
-            seen = lo <= row.get("omega_rad_s", math.nan) <= hi
+            seen = outside_speeds(ranges, row.get("omega_rad_s", math.nan)) is None
             out["regime_confident"] = bool(top >= CONFIDENT_PROBABILITY) and line and seen
         limit = refuse_score(row["ripple"] != "none")
         if scores[i] < limit:

@@ -93,7 +93,7 @@ def qualify(
     Returns the warnings as notes naming their stretch (the window's length: one note for
     all)."""
     from signatelec.estimation.diagnose import CONFIDENT_CONDITION, speed_warning
-    from signatelec.estimation.domain import WARN_SCORE
+    from signatelec.estimation.domain import WARN_SCORE, outside_speeds
     from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 
     long_window = _long_window(window_s)
@@ -108,11 +108,10 @@ def qualify(
                 "the noise)"
             )
         healthy_model = s.get("load_model") != "faulty"
-        lo, hi = ((ranges if healthy_model else faulty_ranges) or {}).get(
-            "omega_rad_s", (None, None)
-        )
         omega = s.get("omega_rad_s")
-        if omega is not None and lo is not None and not lo <= omega <= hi:
+        answered = ranges if healthy_model else faulty_ranges
+        if (speeds := outside_speeds(answered, omega)) is not None:
+            lo, hi = speeds
             warnings.append(
                 f"omega {omega:g} rad/s is outside the training range {lo:g}-{hi:g} "
                 "rad/s: extrapolating, the interval does not cover the model's error there"
