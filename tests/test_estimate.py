@@ -540,8 +540,9 @@ def test_estimate_parquet_and_columns(small_model, tmp_path, capsys):
 def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
     """The trace ``df`` (time_s in seconds) as spreadsheets and loggers write it: separated by
     semicolons or tabs with decimal commas (a European locale's export), its time as Parquet
-    timestamps (without a zone, in Paris time, as elapsed durations), as ISO 8601 text (with a
-    comma fraction too) or as a time of day, and compressed by gzip, bzip2 or xz."""
+    timestamps (without a zone, in Paris time, as elapsed durations), as ISO 8601 text or a time
+    of day (with a comma fraction, a zero one dropped in the first row), as text in Parquet (its
+    first missing), and compressed by gzip, bzip2 or xz."""
     stamps = pd.Timestamp("2026-11-24 10:00:00") + pd.to_timedelta(
         np.round(df["time_s"].to_numpy() * 1e9).astype(np.int64), unit="ns"
     )
@@ -560,10 +561,18 @@ def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
     paths["iso.csv"] = tmp / "iso.csv"
     # a European export: a comma fraction in the timestamp, decimal commas, semicolons
     comma = df.assign(time_s=stamps.strftime("%Y-%m-%d %H:%M:%S,%f"))
+    comma.loc[0, "time_s"] = comma.loc[0, "time_s"].split(",")[0]  # a zero fraction dropped
     comma.to_csv(tmp / "european.csv", sep=";", decimal=",", index=False)
     paths["european.csv"] = tmp / "european.csv"
-    df.assign(time_s=stamps.strftime("%H:%M:%S.%f")).to_csv(tmp / "clock.csv", index=False)
+    clock = df.assign(time_s=stamps.strftime("%H:%M:%S,%f"))
+    clock.loc[0, "time_s"] = clock.loc[0, "time_s"].split(",")[0]
+    clock.to_csv(tmp / "clock.csv", sep=";", decimal=",", index=False)
     paths["clock.csv"] = tmp / "clock.csv"
+    # seconds as text in Parquet, the first missing (pandas' NA, not NaN)
+    text = df.assign(time_s=df["time_s"].map(repr).astype("string"))
+    text.loc[0, "time_s"] = pd.NA
+    text.to_parquet(tmp / "text.parquet")
+    paths["text.parquet"] = tmp / "text.parquet"
     for compression in ("gz", "bz2", "xz"):  # a logger's compressed CSV
         df.to_csv(tmp / f"packed.csv.{compression}", index=False)
         paths[f"packed.csv.{compression}"] = tmp / f"packed.csv.{compression}"
@@ -584,6 +593,12 @@ def test_estimate_reads_spreadsheet_and_logger_formats(small_model, tmp_path, ca
         out = tmp_path / f"{name}.json"
         assert _run(["estimate", str(path), *args, "--out", str(out)]) == 0, capsys.readouterr()
         answers[name] = json.loads(out.read_text())["radial_load_n"]
+    # (the text's first time is missing: the example less its first sample)
+    _example().iloc[1:].to_csv(tmp_path / "later.csv", index=False)
+    out = tmp_path / "later.json"
+    assert _run(["estimate", str(tmp_path / "later.csv"), *args, "--out", str(out)]) == 0
+    later = json.loads(out.read_text())["radial_load_n"]
+    assert answers.pop("text.parquet") == pytest.approx(later, rel=1e-9)
     assert answers == pytest.approx(dict.fromkeys(answers, answers["example"]), rel=1e-9)
     holed = _example().drop(index=500)
     holed.to_csv(tmp_path / "holed.csv", index=False)

@@ -6,7 +6,9 @@ in chunks, each refusal one line (:class:`~signatelec.measurement.traces.TraceEr
 from __future__ import annotations
 
 import csv
+import lzma
 import re
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -131,15 +133,15 @@ def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.n
         if not (pd.api.types.is_object_dtype(kind) or pd.api.types.is_string_dtype(kind)):
             return None
         # the first cell that holds something (the others are read alike)
-        cells = (str(c).strip() for c in raw if c is not None and c == c)
+        cells = (str(c).strip() for c in raw if pd.notna(c))
         first = next((c for c in cells if c.lower() not in ("nan", "")), "0")
         try:
             float(first)
             return None  # numbers (or text refused as such)
         except ValueError:
             pass
-        if _COMMA_FRACTION.search(first):
-            raw = raw.str.replace(_COMMA_FRACTION, r"\1.\2", regex=True)
+        # (every cell: a writer that drops a zero fraction starts on a whole second)
+        raw = raw.astype("string").str.replace(_COMMA_FRACTION, r"\1.\2", regex=True)
         stamps = pd.to_datetime(raw, format="ISO8601", utc=True, errors="coerce")
         if stamps.isna().all():  # a time of day ('10:00:00.5') or a duration, as seconds
             lasted = pd.to_timedelta(raw, errors="coerce")
@@ -254,9 +256,17 @@ def read_trace(
             # one that is read, it is text there, refused as such)
             df = pd.read_csv(p, sep=sep, decimal=decimal, comment="#", encoding_errors="replace")
             header = header_names(p, sep=sep, comment="#")  # (UTF-8, as the monitor reads it)
-    except (OSError, EOFError, ValueError, pd.errors.ParserError, csv.Error) as exc:
+    except (
+        OSError,
+        EOFError,
+        ValueError,
+        pd.errors.ParserError,
+        csv.Error,
+        lzma.LZMAError,
+        zlib.error,
+    ) as exc:
         # csv.Error: the delimiter sniffer finds no column separator (an empty file, one cell);
-        # OSError, EOFError: a damaged or truncated compressed file
+        # OSError, EOFError, LZMAError, zlib.error: a damaged or truncated compressed file
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise TraceError(f"{where}: cannot be read as {kind}{compression or ''} ({text})") from None
     wanted = (time_column, resistance_column)

@@ -128,8 +128,10 @@ STEADY_PHASE = PHASES[-1]
 
 def daylight_saving(jump_s: float) -> str:
     """For a message on a time that jumps by ``jump_s``: a clause naming a local clock's change
-    for daylight saving when the jump is an hour, to within a second (timestamps without a
-    zone are read as UTC), else ''."""
+    for daylight saving when the jump is an hour, or a time of day past midnight when it goes
+    back a day, to within a second (timestamps without a zone are read as UTC), else ''."""
+    if abs(jump_s + 86400.0) <= 1.0:
+        return " (the time goes back a day: a time of day past midnight? give dates too)"
     if abs(abs(jump_s) - 3600.0) > 1.0:
         return ""
     return (
