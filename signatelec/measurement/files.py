@@ -114,7 +114,24 @@ class Clock:
 
 
 #: Cells of a time column read as text: a timestamp's comma fraction (ISO 8601 allows it).
-_COMMA_FRACTION = re.compile(r"(\d{2}:\d{2}:\d{2}),(\d)")
+_COMMA_FRACTION = r"(\d{2}:\d{2}:\d{2}),(\d)"
+
+
+def _point_fractions(raw):
+    """A text column with each time's comma fraction written with a point, in every cell (a
+    writer that drops a zero fraction starts on a whole second; pandas reads '10:00:00,000050'
+    as a duration of 50 s): Arrow's regular expressions, ~0.2 us a cell, where pandas' took
+    ~1.5 us, 3x the rest of the reading of a timestamped CSV."""
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    try:
+        cells = pa.array(raw.astype(object), from_pandas=True, type=pa.string())
+    except (pa.ArrowInvalid, pa.ArrowTypeError):  # (cells of other types: read as text)
+        cells = pa.array(raw.astype(str), type=pa.string())
+    fixed = pc.replace_substring_regex(cells, pattern=_COMMA_FRACTION, replacement=r"\1.\2")
+    return pd.Series(fixed.to_pandas(), index=raw.index)
 
 
 def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.ndarray | None:
@@ -140,8 +157,7 @@ def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.n
             return None  # numbers (or text refused as such)
         except ValueError:
             pass
-        # (every cell: a writer that drops a zero fraction starts on a whole second)
-        raw = raw.astype("string").str.replace(_COMMA_FRACTION, r"\1.\2", regex=True)
+        raw = _point_fractions(raw)
         stamps = pd.to_datetime(raw, format="ISO8601", utc=True, errors="coerce")
         if stamps.isna().all():  # a time of day ('10:00:00.5') or a duration, as seconds
             lasted = pd.to_timedelta(raw, errors="coerce")
