@@ -71,14 +71,15 @@ from signatelec.estimation.monitor_settings import (
     speed_given,
     speed_of,
     speed_refusal,
+    turning,
     unconfirmed,
     windows_in_gaps,
 )
 from signatelec.interrupts import interruption
+from signatelec.measurement.band import SEARCH_REL
 from signatelec.measurement.stream import read_chunks, trace_label
 from signatelec.measurement.traces import (
     MAX_GAP_BALL_PASSES,
-    SEARCH_REL,
     TraceError,
     prepare_trace,
     sampling_step,
@@ -278,7 +279,7 @@ class _Windows:
         """:func:`~signatelec.estimation.monitor_settings.windows_in_gaps` of the block's
         samples and the one before them (``omega``: the block's speed)."""
         times = np.concatenate([[self.before], self.at[lo : hi + 1]])
-        if times.size < 2 or not (math.isfinite(omega) and omega > 0):
+        if times.size < 2 or not turning(omega):
             return []
         limit = MAX_GAP_BALL_PASSES / expected_ball_pass_hz(omega, self.s.bearing)
         return windows_in_gaps(times, limit, start, self.s, self.fs, n_per)
@@ -410,12 +411,12 @@ class _Windows:
         # a speed column at rest, or changing across the block by more than STEADY_SPEED: a
         # refusal of the record's first block does not refuse the record, the next is first
         ends = screen_speeds(speed, int(SCREEN_S * self.fs), omega_block) if self.first else None
-        turning = math.isfinite(omega_block) and omega_block > 0
-        at_rest = speed is not None and not turning
+        turns = turning(omega_block)
+        at_rest = speed is not None and not turns
         ramp = self.first and speed is not None and ends[0] > 0
         ramp = ramp and abs(ends[1] / ends[0] - 1.0) > STEADY_SPEED
         try:
-            if not turning:
+            if not turns:
                 raise TraceError(f"{where}: speed {omega_block!r} rad/s; must be finite and > 0")
             trace = prepare_trace(
                 self.t[lo:hi],

@@ -227,11 +227,17 @@ def window_too_short(window_s: float, omega: float, bearing: Bearing | None = No
     )
 
 
+def turning(omega: float) -> bool:
+    """Whether ``omega`` is a speed the bearing turns at: finite and > 0 (a speed column's
+    NaN, where it has no sample, and 0 at rest are not)."""
+    return math.isfinite(omega) and omega > 0
+
+
 def speed_refusal(omega: float, settings: MonitorSettings) -> str | None:
     """Why a window at the speed ``omega`` (a speed column's, :func:`speed_of`) carries no
     estimate, or None: a speed that is not finite and > 0, or too slow for the window
     (:func:`window_too_short`)."""
-    if not (math.isfinite(omega) and omega > 0):
+    if not turning(omega):
         return f"speed {omega:g} rad/s; must be finite and > 0"
     return window_too_short(settings.window_s, omega, settings.bearing)
 
@@ -264,9 +270,9 @@ def screen_speeds(speed: np.ndarray | None, n: int, omega: float) -> tuple[float
     if speed is None:
         return omega, omega
     first, last = speed_of(speed[:n]), speed_of(speed[-n:])
-    if not (math.isfinite(last) and last > 0):
-        return (first if math.isfinite(first) and first > 0 else omega), omega
-    return (first if math.isfinite(first) and first > 0 else math.nan), last
+    if not turning(last):
+        return (first if turning(first) else omega), omega
+    return (first if turning(first) else math.nan), last
 
 
 def followed(at: float, omega: float, found: float) -> str:
