@@ -236,8 +236,9 @@ def test_a_condition_called_outside_its_training_speeds_is_warned_apart(
 ):
     """A condition model whose training speeds exclude the record's: each stretch's condition
     carries a warning of its own (``condition_warnings``, a note, "extrapolated" in the printed
-    line; a healthy call is not confident there, README, Diagnosis), and the load state's
-    warnings and confidence are those of the same record within the range."""
+    line; a healthy call is not confident there, ``condition_confident``, README, Diagnosis),
+    and the load state's warnings and confidence are those of the same record within the
+    range."""
     from signatelec.estimation.persistence import load_model, save_model
 
     model = load_model(model_file)
@@ -262,6 +263,8 @@ def test_a_condition_called_outside_its_training_speeds_is_warned_apart(
     ]
     assert inner == [healthy[0].split(";")[0]]
     assert outside[0]["condition_speeds_rad_s"] == pytest.approx([OMEGA, OMEGA])
+    assert [s["condition_confident"] for s in inside] == [True, True]
+    assert [s["condition_confident"] for s in outside] == [False, True]
     for a, b in zip(inside, outside, strict=True):
         assert (a["warnings"], a["regime_confident"]) == (b["warnings"], b["regime_confident"])
     notes = runs["outside"][0]["notes"]
@@ -280,7 +283,13 @@ def test_a_fault_gone_into_a_healthy_call_beyond_the_training_speeds_is_not_conf
     model = SimpleNamespace(info={"ranges": {"omega_rad_s": [300.0, 700.0]}})
     speeds = ([500.0, 520.0], [500.0, 650.0], [600.0, 900.0])
     stretches = [
-        {"start_s": 60.0 * i, "end_s": 60.0 * (i + 1), "condition": c, "condition_speeds_rad_s": v}
+        {
+            "start_s": 60.0 * i,
+            "end_s": 60.0 * (i + 1),
+            "condition": c,
+            "condition_probability": 0.97,
+            "condition_speeds_rad_s": v,
+        }
         for i, (c, v) in enumerate(zip(("healthy", "inner", "healthy"), speeds, strict=True))
     ]
     alarms = [
@@ -290,8 +299,57 @@ def test_a_fault_gone_into_a_healthy_call_beyond_the_training_speeds_is_not_conf
     notes = qualify(stretches, condition_model=model)
     qualify_alarms(alarms, stretches)
     assert [bool(s["condition_warnings"]) for s in stretches] == [False, False, True]
+    assert [s["condition_confident"] for s in stretches] == [True, True, False]
     assert len(notes) == 1 and notes[0].startswith("stretch 120-180 s: condition: omega 600-900")
     assert [a["confident"] for a in alarms] == [True, False]
+
+
+def test_a_stretch_condition_is_confident_as_estimate_calls_one():
+    """A stretch's ``condition_confident`` follows ``estimate``'s rule for one trace: the call's
+    probability (the mean of its assessments', on the training mix) at least
+    CONFIDENT_CONDITION, and not a healthy call beyond the condition model's training speeds (a
+    fault called there keeps its confidence); the printed line says "uncertain"."""
+    from types import SimpleNamespace
+
+    from signatelec.estimation.diagnose import CONFIDENT_CONDITION
+    from signatelec.estimation.monitor_report import format_summary, qualify
+
+    model = SimpleNamespace(info={"ranges": {"omega_rad_s": [300.0, 700.0]}})
+    cases = [  # (call, probability, speeds, confident)
+        ("healthy", CONFIDENT_CONDITION + 0.01, [500.0, 500.0], True),
+        ("healthy", CONFIDENT_CONDITION - 0.01, [500.0, 500.0], False),
+        ("outer", CONFIDENT_CONDITION - 0.01, [500.0, 500.0], False),
+        ("outer", 0.99, [900.0, 950.0], True),
+        ("healthy", 0.99, [900.0, 950.0], False),
+    ]
+    stretches = [
+        {
+            "start_s": 10.0 * i,
+            "end_s": 10.0 * (i + 1),
+            "condition": c,
+            "condition_probability": p,
+            "condition_speeds_rad_s": v,
+        }
+        for i, (c, p, v, _) in enumerate(cases)
+    ]
+    qualify(stretches, condition_model=model)
+    assert [s["condition_confident"] for s in stretches] == [c[-1] for c in cases]
+    summary = {
+        "trace": {
+            "n_samples": 2500000,
+            "sample_rate_hz": 5e4,
+            "duration_s": 50.0,
+            "windows": 250,
+            "windows_without_estimate": 0,
+            "first_refusal": None,
+        },
+        "settings": {},
+        "notes": [],
+        "stretches": stretches,
+        "alarms": [],
+    }
+    lines = format_summary(summary).splitlines()[-len(cases) :]
+    assert [line.endswith("uncertain") for line in lines] == [not c[-1] for c in cases]
 
 
 def test_a_stated_prior_moves_the_reported_probabilities_only(model_file, tile, tmp_path):

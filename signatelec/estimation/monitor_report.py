@@ -8,9 +8,10 @@
   the bearing's ``condition`` with its probabilities and spall length on the assessed windows);
 - ``summary.json``: the trace, the settings, ``stretches`` (``start_s``, ``end_s``,
   ``radial_load_n`` with ``_low`` and ``_high``, ``epsilon``, ``clearance_m``, ``regime``,
-  ``regime_probability``, ``condition``, ``condition_probability``, ...), ``changes``
-  (``time_s``, ``what``, ``probability``) and ``alarms`` (``time_s``, ``kind``: load, regime or
-  condition, ``what``, ``probability``, ``change``: the index of the change that raised it);
+  ``regime_probability``, ``condition``, ``condition_probability``, ``condition_confident``,
+  ...), ``changes`` (``time_s``, ``what``, ``probability``) and ``alarms`` (``time_s``,
+  ``kind``: load, regime or condition, ``what``, ``probability``, ``change``: the index of the
+  change that raised it);
 - ``monitor.png``: resistance envelope, F_r with its band (windows and stretches), regime
   probabilities and the share of the condition's assessments called faulty, alarms against time.
 """
@@ -89,7 +90,10 @@ def qualify(
     :data:`~signatelec.estimation.estimate.CONFIDENT_PROBABILITY` and no warning). A
     condition called at a speed outside the ``condition_model``'s training range is warned of
     apart, in ``condition_warnings`` (:func:`~signatelec.estimation.diagnose.speed_warning`:
-    a healthy call there is not confident), which leaves the load state's confidence alone.
+    a healthy call there is not confident), which leaves the load state's confidence alone;
+    ``condition_confident`` as ``estimate``'s (the call's probability, on the condition model's
+    training mix, at least :data:`~signatelec.estimation.diagnose.CONFIDENT_CONDITION`, and not
+    a healthy call so warned).
     Returns the warnings as notes naming their stretch (the window's length: one note for
     all)."""
     from signatelec.estimation.diagnose import CONFIDENT_CONDITION, speed_warning
@@ -140,6 +144,11 @@ def qualify(
         if condition is not None and condition_model is not None:
             off = speed_warning(condition_model, s.get("condition_speeds_rad_s"), condition)
             s["condition_warnings"] = [f"condition: {off}"] if off else []
+        if condition is not None:  # as estimate's: the call's probability, a healthy call's speed
+            sure = (s.get("condition_probability") or 0.0) >= CONFIDENT_CONDITION
+            s["condition_confident"] = bool(
+                sure and not (condition == HEALTHY and s.get("condition_warnings"))
+            )
         notes += [
             f"stretch {time_text(s['start_s'])}-{time_text(s['end_s'])} s: {w}"
             for w in warnings + s.get("condition_warnings", [])
@@ -479,6 +488,7 @@ def format_summary(summary: dict) -> str:
         if "condition" in s:
             line += f"  condition {s['condition']} ({s['condition_probability']:.2f})"
             line += ", extrapolated" if s.get("condition_warnings") else ""
+            line += "" if s.get("condition_confident", True) else ", uncertain"
         lines.append(line)
     for a in summary["alarms"]:
         lines.append(
