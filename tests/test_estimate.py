@@ -541,8 +541,8 @@ def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
     """The trace ``df`` (time_s in seconds) as spreadsheets and loggers write it: separated by
     semicolons or tabs with decimal commas (a European locale's export), its time as Parquet
     timestamps (without a zone, in Paris time, as elapsed durations), as ISO 8601 text or a time
-    of day (with a comma fraction, a zero one dropped in the first row), as text in Parquet (its
-    first missing), and compressed by gzip, bzip2 or xz."""
+    of day (with a comma fraction, a zero one dropped in the first row; or past midnight), as
+    text in Parquet (its first missing), and compressed by gzip, bzip2 or xz."""
     stamps = pd.Timestamp("2026-11-24 10:00:00") + pd.to_timedelta(
         np.round(df["time_s"].to_numpy() * 1e9).astype(np.int64), unit="ns"
     )
@@ -568,6 +568,10 @@ def _formats(df: pd.DataFrame, tmp: Path) -> dict[str, Path]:
     clock.loc[0, "time_s"] = clock.loc[0, "time_s"].split(",")[0]
     clock.to_csv(tmp / "clock.csv", sep=";", decimal=",", index=False)
     paths["clock.csv"] = tmp / "clock.csv"
+    # a logger's time of day, no date, running past midnight 0.1 s after its first sample
+    late = stamps - stamps[0] + pd.Timestamp("2026-11-24 23:59:59.9")
+    df.assign(time_s=late.strftime("%H:%M:%S.%f")).to_csv(tmp / "midnight.csv", index=False)
+    paths["midnight.csv"] = tmp / "midnight.csv"
     # seconds as text in Parquet, the first missing (pandas' NA, not NaN)
     text = df.assign(time_s=df["time_s"].map(repr).astype("string"))
     text.loc[0, "time_s"] = pd.NA

@@ -94,6 +94,10 @@ def _refuse_text(raw, read, column: str, where: str, first_row: int, allowed: st
         )
 
 
+#: A day, s.
+DAY_S = 86400.0
+
+
 @dataclass
 class Clock:
     """A time column of timestamps is read as seconds after its first timestamp,
@@ -102,6 +106,25 @@ class Clock:
     after one missing sample resampled a record at 99864 Hz)."""
 
     origin_ns: int | None = None
+    #: Days a time of day has passed midnight, and its last time read (s after midnight).
+    days: int = 0
+    last_of_day_s: float | None = None
+
+    def of_day(self, seconds: np.ndarray) -> np.ndarray:
+        """Times of day (s after midnight, every one below a day) as seconds after the first
+        day's midnight, in place and across reads: a time that goes back more than half a day
+        is the next day's (a logger's clock without a date runs past midnight; a time that goes
+        back less is refused later, as any time that goes back is)."""
+        read = np.flatnonzero(np.isfinite(seconds))
+        if read.size == 0:
+            return seconds
+        t = seconds[read]
+        before = t[0] if self.last_of_day_s is None else self.last_of_day_s
+        previous = np.concatenate(([before], t[:-1]))
+        days = self.days + np.cumsum(t < previous - DAY_S / 2)
+        self.last_of_day_s, self.days = float(t[-1]), int(days[-1])
+        seconds[read] = t + DAY_S * days
+        return seconds
 
     @property
     def origin_utc(self) -> str | None:
@@ -139,7 +162,8 @@ def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.n
     datetime64 (a Parquet timestamp, tz-aware or not) and ISO 8601 text (a time without zone
     read as UTC; a comma fraction read as a point) as seconds after ``clock``'s origin,
     timedelta64 and text of a time of day or a duration ('10:00:00.5', '0 days 00:00:01') as
-    seconds; missing -> NaN.
+    seconds (a time of day's after its first day's midnight, past midnight too:
+    :meth:`Clock.of_day`); missing -> NaN.
     Text that is neither a number nor a timestamp is refused naming its row."""
     import pandas as pd
 
@@ -164,7 +188,9 @@ def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.n
             if lasted.isna().all():
                 return None
             _refuse_text(raw, lasted, column, where, first_row, CLOCK_CELLS)
-            return lasted.dt.total_seconds().to_numpy(dtype=float)
+            seconds = lasted.dt.total_seconds().to_numpy(dtype=float, copy=True)
+            of_day = np.all((seconds >= 0.0) & (seconds < DAY_S) | np.isnan(seconds))
+            return clock.of_day(seconds) if of_day else seconds
         _refuse_text(raw, stamps, column, where, first_row, CLOCK_CELLS)
         raw = stamps
     if isinstance(raw.dtype, pd.DatetimeTZDtype):
