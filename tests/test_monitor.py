@@ -345,6 +345,120 @@ def test_a_run_up_is_monitored(model_file, tiles, tmp_path, speed):
     assert windows["radial_load_n"].to_numpy() == pytest.approx(5000.0, rel=0.01)
 
 
+def _run_up(states, speeds, omega_of, duration_s: float, seed: int):
+    """(time, resistance, speed) of a run-up ``omega_of(t)``: each sample interpolated, at its
+    ball-pass phase, between the quasi-static traces at ``speeds`` of the state that holds then
+    (``states``: [(start_s, F_r, clearance)]; the level falls with the speed, the centrifugal
+    force on the balls), with noise."""
+    from signatelec.physics.kinematics import expected_ball_pass_hz
+
+    t = np.arange(int(duration_s * FS)) / FS
+    omega = omega_of(t)
+    step = 0.5 * (omega[1:] + omega[:-1]) / FS
+    passes = expected_ball_pass_hz(1.0) * np.concatenate([[0.0], np.cumsum(step)])
+    where = np.interp(omega, speeds, np.arange(len(speeds)))
+    low = np.clip(np.floor(where).astype(int), 0, len(speeds) - 2)
+    r = np.empty_like(t)
+    for k, (start, load, clearance) in enumerate(states):
+        at = (t >= start) & (t < (states[k + 1][0] if k + 1 < len(states) else np.inf))
+        traces = []
+        for w in speeds:
+            scene = Scene().with_overrides(
+                fidelity="quasistatic",
+                radial_load_n=load,
+                clearance_m=clearance,
+                omega_rad_s=w,
+                duration_s=0.06,
+                sample_rate_hz=FS,
+            )
+            sig = simulate(scene).signals
+            tile = whole_passes(
+                sig.loc[sig["phase"] == "steady", "resistance_ohm"].to_numpy(), FS, w
+            )
+            n_passes = round(tile.size * expected_ball_pass_hz(w) / FS)
+            x = (passes[at] % n_passes) * tile.size / n_passes
+            traces.append(np.interp(x, np.arange(tile.size), tile, period=tile.size))
+        traces = np.array(traces)
+        i, f, n = low[at], where[at] - low[at], np.arange(np.count_nonzero(at))
+        r[at] = traces[i, n] * (1.0 - f) + traces[i + 1, n] * f
+    rng = np.random.default_rng(seed)
+    return t, r * (1.0 + NOISE * rng.standard_normal(r.size)), omega
+
+
+@pytest.mark.parametrize("step", [None, 6000.0])
+def test_a_run_up_at_a_constant_load_is_one_stretch(model_file, tmp_path, step):
+    """A run-up from 400 to 600 rad/s in 30 s at 5000 N and epsilon 0.45 (at 500 rad/s): the
+    level falls 0.4 % with the speed (the balls' centrifugal force), ~100 times a window's
+    noise, so the features' detector finds changes every few seconds; each raises no alarm and
+    came with the speed, so the run-up is one stretch (it had been cut into ~15), F_r within
+    1 % of the state's, its speeds and the times joined given. A load step of 20 % half-way
+    is kept: one change, within one window, with its load alarm, and each side within 1 %."""
+    from signatelec.estimation.persistence import load_model
+
+    clearance = clearance_for_epsilon(Bearing(), 5000.0, OMEGA, 0.45)
+    states = [(0.0, 5000.0, clearance)] + ([(15.0, step, clearance)] if step else [])
+    t, r, omega = _run_up(
+        states, [400.0, 500.0, 600.0], lambda x: 400.0 + 200.0 * x / 30.0, 30.0, 5
+    )
+    path = _write(tmp_path / "runup.parquet", t, r, speed_rad_s=omega)
+    table = monitor_trace(path, load_model(model_file), MonitorSettings(speed_column="speed_rad_s"))
+    stretches, changes, alarms = stretches_and_changes(table.frame(), 0.2)
+    loads = [load for _, load, _ in states]
+    assert len(stretches) == len(states) and len(changes) == len(states) - 1
+    assert [s["radial_load_n"] for s in stretches] == pytest.approx(loads, rel=0.01)
+    assert sum(len(s.get("joined_s", [])) for s in stretches) >= 3
+    if step:
+        assert changes[0]["time_s"] == pytest.approx(15.0, abs=0.2)
+        assert [a["kind"] for a in alarms] == ["load"]
+    else:
+        assert stretches[0]["omega_range_rad_s"] == pytest.approx([400.0, 600.0], rel=0.01)
+
+
+def test_a_change_with_the_speed_is_joined_only_below_every_alarm():
+    """The rule that joins a change of the features that came with the speed, case by case: a
+    load change below the threshold is joined; beyond it (judged against the stretch joined so
+    far, 5050 -> 5320 N), kept; a regime change between two confident calls (0.8 and above),
+    kept, with one call uncertain, joined; a change at the same speed (within 0.1 %), or of
+    the condition, kept."""
+    from signatelec.estimation.evidence import _join_speed_changes
+
+    rows = [  # (speed, F_r, regime, its probability, condition changed at its start)
+        (500.0, 5000.0, "clearance", 0.95, False),
+        (520.0, 5100.0, "clearance", 0.90, False),  # joined
+        (545.0, 5320.0, "clearance", 0.90, False),  # kept: +4.3 % of 5100, +5.3 % of 5050
+        (570.0, 5310.0, "preload", 0.95, False),  # kept: two confident calls
+        (600.0, 5320.0, "clearance", 0.60, False),  # joined: an uncertain call
+        (585.3, 5330.0, "preload", 0.95, False),  # kept: the two joined at 585 rad/s
+        (640.0, 5340.0, "preload", 0.95, True),  # kept: the condition changed
+    ]
+    stretches = [
+        {
+            "start_s": 10.0 * i,
+            "end_s": 10.0 * (i + 1),
+            "omega_rad_s": w,
+            "radial_load_n": load,
+            "radial_load_n_se_noise": 1e-3,
+            "regime": regime,
+            "regime_probability": p,
+            f"regime_probability_{regime}": p,
+        }
+        for i, (w, load, regime, p, _) in enumerate(rows)
+    ]
+    found = [(i, 10.0 * i, 1.0, row[4]) for i, row in enumerate(rows) if i]
+
+    def answer(start_s, end_s):  # the stretches within: F_r and speed their mean
+        inside = [s for s in stretches if start_s <= s["start_s"] and s["end_s"] <= end_s]
+        mean = {k: float(np.mean([s[k] for s in inside])) for k in ("radial_load_n", "omega_rad_s")}
+        return {**inside[0], "end_s": end_s, **mean}
+
+    joined, kept = _join_speed_changes(stretches, found, answer, 0.05)
+    assert [c[1] for c in kept] == [20.0, 30.0, 50.0, 60.0]
+    assert [(s["start_s"], s["end_s"]) for s in joined] == [
+        (0.0, 20.0), (20.0, 30.0), (30.0, 50.0), (50.0, 60.0), (60.0, 70.0)
+    ]  # fmt: skip
+    assert [s.get("joined_s") for s in joined] == [[10.0], None, [40.0], None, None]
+
+
 @pytest.mark.parametrize("start", ["at rest", "run up from rest", "speed missing 0.5 s"])
 def test_a_record_that_starts_at_rest_is_monitored_once_it_turns(
     model_file, tiles, tmp_path, start

@@ -28,6 +28,10 @@ weighted n_eff / n (the same correction for correlation); the condition, assesse
 windows, is the call most of them share, with their mean probabilities
 (:func:`~signatelec.estimation.health.stretch_condition` says why).
 
+**Speed**: features read at another speed move with it, so a change that came with the
+speed and raises no alarm is the speed's, and its two stretches are joined
+(:func:`_join_speed_changes`): a run-up at a constant load is one stretch.
+
 **Alarms** (:func:`alarms`): at each change, a load change beyond ``load_threshold`` (with the
 probability that the stretches' F_r differ by more, from their scatter parts), a change of
 regime or of condition (the probability that the two stretches' classes differ).
@@ -52,6 +56,7 @@ from signatelec.estimation.changes import (
     rate_shares,
 )
 from signatelec.estimation.condition import PROBABILITY
+from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
 from signatelec.estimation.health import (
     assessed_windows,
     condition_changes,
@@ -59,8 +64,13 @@ from signatelec.estimation.health import (
     stretch_condition,
 )
 from signatelec.estimation.stretch import stretch_estimate
-from signatelec.measurement.band import SEARCH_REL
 
+#: A change of the stretches' median speed beyond which the features may have moved with it:
+#: the level's elasticity to the speed is about -0.01 at 500 rad/s (it falls ~0.4 % from 400 to
+#: 600 rad/s at a constant load, the balls' centrifugal force, growing as the speed squared),
+#: so 0.1 % moves it by 1-2e-5, a few standard deviations of a few seconds' mean (a 0.2 s
+#: window's is ~3e-5 at 0.2 % noise): what the change detector can see.
+SPEED_MOVED_REL = 1e-3
 #: The z of a two-sided 90 % normal interval (intervals are combined on this scale).
 Z90 = stats.norm.ppf(0.95)
 #: The model's error of a state (shared by its windows) in units of the stretch model's
@@ -311,16 +321,19 @@ def stretches_and_changes(
     frames = [f for f in (good, assessed) if len(f)]
     first = min(float(f["start_s"].iloc[0]) for f in frames)
     bounds = [first, *times, max(float(f["end_s"].iloc[-1]) for f in frames)]
-    stretches = []
-    for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
-        part = _within(good.iloc[a:b], bounds[i], bounds[i + 1])
-        s = {"start_s": bounds[i], "end_s": bounds[i + 1]}
-        s.update(combine_stretch(part, bias_ratio, stretch_model))
+
+    def answer(part: pd.DataFrame, start_s: float, end_s: float) -> dict:
+        """The stretch of ``part``'s windows from ``start_s`` to ``end_s``."""
+        s = {"start_s": start_s, "end_s": end_s, **combine_stretch(part, bias_ratio, stretch_model)}
         if len(assessed):  # the assessments of the condition segment holding its middle
             s = {k: v for k, v in s.items() if not k.startswith("condition")}
-            j = np.searchsorted(cuts, 0.5 * (bounds[i] + bounds[i + 1]))
-            mine = assessed if segment is None else assessed[segment == j]
-            s |= stretch_condition(mine)
+            j = np.searchsorted(cuts, 0.5 * (start_s + end_s))
+            s |= stretch_condition(assessed if segment is None else assessed[segment == j])
+        return s
+
+    stretches = []
+    for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+        s = answer(_within(good.iloc[a:b], bounds[i], bounds[i + 1]), bounds[i], bounds[i + 1])
         if faulty_model is not None and s.get("condition") not in (None, HEALTHY):
             # the last stretch runs to the last window the faulty model answers (the last
             # assessment may lie up to a cadence before it, the healthy model refused the rest)
@@ -334,6 +347,17 @@ def stretches_and_changes(
             continue
         stretches.append(s)
     found.sort(key=lambda c: c[1])
+
+    def joined(start_s: float, end_s: float) -> dict:
+        """The stretch of the windows from ``start_s`` to ``end_s``, with their speeds."""
+        part = _within(good, start_s, end_s)
+        speeds = part["omega_rad_s"].to_numpy(float) if "omega_rad_s" in part else []
+        out = answer(part, start_s, end_s)
+        if np.isfinite(speeds).any():
+            out["omega_range_rad_s"] = [float(np.nanmin(speeds)), float(np.nanmax(speeds))]
+        return out
+
+    stretches, found = _join_speed_changes(stretches, found, joined, load_threshold)
     changes, alarm_list = [], []
     for i, ((_, t, p, cond_changed), before, after) in enumerate(
         zip(found, stretches[:-1], stretches[1:], strict=True)
@@ -406,12 +430,48 @@ def _answered_faulty(
     return pieces, [(t, p) for t, (_, p) in zip(times, found, strict=True)]
 
 
+def _join_speed_changes(stretches: list, found: list, answer, load_threshold: float):
+    """(stretches, changes found) with each change of the load state's features that came with
+    a change of speed (:func:`_speed_moved`) and raises no alarm (no load change beyond
+    ``load_threshold``, no change of regime between two confident calls; not a change of
+    condition, not a stretch the faulty model answered) joined into the stretch before it,
+    which ``answer(start_s, end_s)`` gives anew: features read at another speed move with it
+    (the level falls ~0.4 % from 400 to 600 rad/s at a constant load, the centrifugal force on
+    the balls; ~100 times a window's noise), so a run-up at a constant load had been cut every
+    ~2 s, and the stretches' regime calls, each on a few seconds, had flipped where the
+    signature cannot tell the regimes apart (epsilon 0.45-0.55). Each change is judged
+    against the stretch joined so far, so a load that drifts with the speed is cut where it
+    has moved past the threshold. A joined stretch lists the times joined (``joined_s``) and
+    its windows' speeds (``omega_range_rad_s``)."""
+    out, kept = [stretches[0]] if stretches else [], []
+    for change, after in zip(found, stretches[1:], strict=True):
+        before = out[-1]
+        faulty = "faulty" in (before.get("load_model"), after.get("load_model"))
+        raised = alarms(before, after, change[1], change[2], load_threshold, condition=False)
+        sure = all(
+            s.get("regime_probability", 0.0) >= CONFIDENT_PROBABILITY for s in (before, after)
+        )
+        if (
+            change[3]
+            or faulty
+            or _speed_moved(before, after) is None
+            or any(a["kind"] == "load" or sure for a in raised)
+        ):
+            out.append(after)
+            kept.append(change)
+            continue
+        joined = answer(before["start_s"], after["end_s"])
+        joined["joined_s"] = [*before.get("joined_s", []), change[1]]
+        out[-1] = joined
+    return out, kept
+
+
 def _speed_moved(before: dict, after: dict) -> str | None:
-    """The speed's change between two stretches (their windows' median), when beyond the
-    windows' own search for the ball-pass line (+-1 %), or None: the features, read at
-    another speed, move with it, so what changed there may be the speed alone."""
+    """The speed's change between two stretches (their windows' median), when beyond
+    :data:`SPEED_MOVED_REL`, or None: the features, read at another speed, move with it, so
+    what changed there may be the speed alone."""
     a, b = before.get("omega_rad_s"), after.get("omega_rad_s")
-    if a is None or b is None or not (a > 0 and abs(b / a - 1.0) > SEARCH_REL):
+    if a is None or b is None or not (a > 0 and abs(b / a - 1.0) > SPEED_MOVED_REL):
         return None
     return f"the speed changed too: {a:.6g} -> {b:.6g} rad/s"
 

@@ -151,7 +151,7 @@ def qualify(
             )
         notes += [
             f"stretch {time_text(s['start_s'])}-{time_text(s['end_s'])} s: {w}"
-            for w in warnings + s.get("condition_warnings", [])
+            for w in warnings + s.get("condition_warnings", []) + _joined(s)
         ]
         if long_window:
             warnings.append(long_window)
@@ -160,6 +160,20 @@ def qualify(
             not warnings and (s.get("regime_probability") or 0.0) >= CONFIDENT_PROBABILITY
         )
     return notes
+
+
+def _joined(stretch: dict) -> list[str]:
+    """A note on the changes of a stretch's features that came with its speed and were joined
+    (:func:`~signatelec.estimation.evidence.stretches_and_changes`), or none."""
+    times = stretch.get("joined_s")
+    if not times:
+        return []
+    low, high = stretch.get("omega_range_rad_s") or (math.nan, math.nan)
+    return [
+        f"one load state over {low:.6g}-{high:.6g} rad/s: its features changed with the speed "
+        f"at {len(times)} time{'s' if len(times) > 1 else ''} (the first at "
+        f"{time_text(times[0])} s), none beyond the alarm thresholds"
+    ]
 
 
 def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
