@@ -136,7 +136,8 @@ def test_a_damaged_compressed_file_is_refused_in_one_line(tmp_path, compression)
 
 def test_a_time_column_without_a_time_is_named(tmp_path):
     """Every time missing (a logger's timestamps all NaT): named, where the record had been
-    called shorter than a window; timestamps where the resistance is asked: named."""
+    called shorter than a window; timestamps where the resistance is asked: named; a bare
+    number among durations: named (it had been read as nanoseconds)."""
     path = tmp_path / "nat.parquet"
     stamps = pd.Series(pd.NaT, index=range(2000), dtype="datetime64[ns]")
     pd.DataFrame({"time_s": stamps, "resistance_ohm": np.full(2000, 3e-3)}).to_parquet(path)
@@ -145,6 +146,15 @@ def test_a_time_column_without_a_time_is_named(tmp_path):
         path, omega_rad_s=OMEGA, resistance_column="time_s", time_column="resistance_ohm"
     )
     assert "column 'time_s' holds timestamps or durations; numbers only" in message
+    # a bare number among durations: pandas reads '2' beside '0 days 00:00:01' as 2 ns
+    times = pd.Series(pd.to_timedelta(np.arange(2000) / FS, unit="s")).astype(str)
+    times[1500] = "2"
+    path = tmp_path / "durations.csv"
+    pd.DataFrame({"time_s": times, "resistance_ohm": np.full(2000, 3e-3)}).to_csv(path)
+    assert _refused(path, omega_rad_s=OMEGA).endswith(
+        "column 'time_s' holds a bare number at row 1500 ('2') among times of day or "
+        "durations; write every time alike"
+    )
 
 
 @pytest.mark.parametrize("back_s", [3600.0, 1800.0, 86400.0])

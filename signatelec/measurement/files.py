@@ -157,6 +157,23 @@ def _point_fractions(raw):
     return pd.Series(fixed.to_pandas(), index=raw.index)
 
 
+def _refuse_bare_numbers(raw, column: str, where: str, first_row: int) -> None:
+    """TraceError naming the first cell of a text column of times of day or durations that is
+    a bare whole number (pandas reads '2' beside '1 days' as 2 ns)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    cells = pa.array(raw.astype(object), from_pandas=True, type=pa.string())
+    bare = pc.match_substring_regex(cells, pattern=r"^\s*[-+]?\d+\s*$").fill_null(False)
+    if pc.any(bare).as_py():
+        row = int(np.flatnonzero(bare.to_numpy(zero_copy_only=False))[0])
+        raise TraceError(
+            f"{where}: column {column!r} holds a bare number at row {first_row + row} "
+            f"({str(raw.iloc[row])[:20]!r}) among times of day or durations; write every time "
+            "alike"
+        )
+
+
 def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.ndarray | None:
     """A time column of timestamps or durations as seconds, or None when it holds numbers:
     datetime64 (a Parquet timestamp, tz-aware or not) and ISO 8601 text (a time without zone
@@ -188,6 +205,7 @@ def _seconds(raw, column: str, where: str, first_row: int, clock: Clock) -> np.n
             if lasted.isna().all():
                 return None
             _refuse_text(raw, lasted, column, where, first_row, CLOCK_CELLS)
+            _refuse_bare_numbers(raw, column, where, first_row)
             seconds = lasted.dt.total_seconds().to_numpy(dtype=float, copy=True)
             of_day = np.all((seconds >= 0.0) & (seconds < DAY_S) | np.isnan(seconds))
             return clock.of_day(seconds) if of_day else seconds
