@@ -599,6 +599,45 @@ def test_standard_input_gives_the_file_s_answer(model_file, tiles, tmp_path):
     assert stretches[0] == stretches[1] and len(stretches[0]) == 2
 
 
+def test_alarms_are_told_on_the_way_when_following(model_file, tiles, tmp_path, capsys):
+    """A followed record (here a file already written, read as a logger's would be, its
+    windows answered every 100): an alarm is told on stderr, marked provisional, once the
+    windows after it are answered (the 30 % step at 15 s once the first 20 s are, before the
+    record is read to its end), each once, and the summary at the end has them."""
+    from signatelec.estimation.monitor_report import LiveAlarms
+
+    t, r, changes = _record(tiles, [("low", 15.0), ("high", 20.0), ("low", 15.0)], seed=12)
+    path = _write(tmp_path / "live.csv", t, r)
+    args = ["monitor", str(path), "--out", str(tmp_path / "out"), "--omega", "500"]
+    assert run_main([*args, "--model", str(model_file), "--follow", "--idle", "0.5"]) == 0
+    told = [x for x in capsys.readouterr().err.splitlines() if "(provisional)" in x]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert [a["time_s"] for a in summary["alarms"]] == pytest.approx(changes, abs=1e-6)
+    assert told and told[0].startswith("signatelec: monitor: alarm at 15 s (provisional): load")
+    times = [float(x.split("alarm at ")[1].split(" s")[0]) for x in told]
+    assert len(set(times)) == len(times) and set(times) <= set(changes)
+    # when it was told: the windows answered then, by the same monitor, file by file
+    answered = []
+
+    class Table:
+        def __init__(self, n):
+            self.n_windows = n
+
+    def summarise(table):
+        answered.append(table.n_windows)
+        return {"alarms": [a for a in summary["alarms"] if a["time_s"] < 0.2 * table.n_windows - 2]}
+
+    live = LiveAlarms(summarise, 0.2)
+    assert live(Table(50)) == []
+    live.next_s = 0.0  # (the wall time's bound aside)
+    (line,) = live(Table(100))
+    assert line.startswith("alarm at 15 s (provisional): load")
+    live.next_s = 0.0
+    assert live(Table(100)) == [] and answered == [50, 100]  # nothing new: not read again
+    (line,) = live(Table(200))
+    assert line.startswith("alarm at 35 s (provisional): load") and answered == [50, 100, 200]
+
+
 # --- bad input ----------------------------------------------------------------------------------
 
 

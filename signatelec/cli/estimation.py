@@ -297,7 +297,12 @@ def monitor(
     from signatelec.estimation.health import CONDITION_EVERY_S
     from signatelec.estimation.monitor import MonitorSettings, monitor_trace
     from signatelec.estimation.monitor_answers import KEPT_FEATURES, kept_features
-    from signatelec.estimation.monitor_report import COMMAND, summary_of, write_monitor
+    from signatelec.estimation.monitor_report import (
+        COMMAND,
+        LiveAlarms,
+        summary_of,
+        write_monitor,
+    )
     from signatelec.estimation.persistence import ModelError, default_model, load_model
     from signatelec.io import input_size_problem
     from signatelec.measurement.stream import check_trace_file, is_standard_input, trace_label
@@ -351,24 +356,6 @@ def monitor(
     # (~1 s an hour of trace with the stretch model's trees); unfrozen once the trace is read,
     # so that whatever was garbage then is collected after (a full collection first: 0.14 s)
     gc.freeze()
-    progress = None if quiet else _progress_printer(trace_file)
-    try:
-        table = monitor_trace(trace_file, model, settings, progress=progress)
-    except TraceError as exc:
-        raise InputError(str(exc)) from None
-    finally:
-        gc.unfreeze()
-    windows = table.frame()
-    stretches, changes, alarms = stretches_and_changes(
-        windows,
-        settings.hop,
-        false_alarm_rate,
-        load_threshold,
-        # the seed's bearing's load-state models (another's windows carry no load state)
-        stretch_model=model.stretch if settings.load_state else None,
-        faulty_model=model.faulty if settings.load_state else None,
-        gaps=table.gaps,
-    )
     extra = {
         "false_alarm_rate_per_hour": false_alarm_rate,
         "load_threshold": load_threshold,
@@ -376,14 +363,41 @@ def monitor(
         "condition_training_mix": model.condition.training_mix if model.condition else None,
         "healthy_prior": healthy_prior,
     }
-    summary = summary_of(table, settings, stretches, changes, alarms, extra, model)
-    if healthy_prior is not None:  # the calls, changes and warnings stay the training mix's
-        report_under_prior(
-            summary["stretches"], summary["changes"], summary["alarms"], model.condition,
-            healthy_prior,
-        )  # fmt: skip
+
+    def summarise(table) -> dict:
+        """The summary of the windows read so far (the output's, and the live alarms')."""
+        stretches, changes, alarms = stretches_and_changes(
+            table.frame(),
+            settings.hop,
+            false_alarm_rate,
+            load_threshold,
+            # the seed's bearing's load-state models (another's windows carry no load state)
+            stretch_model=model.stretch if settings.load_state else None,
+            faulty_model=model.faulty if settings.load_state else None,
+            gaps=table.gaps,
+        )
+        summary = summary_of(table, settings, stretches, changes, alarms, extra, model)
+        if healthy_prior is not None:  # the calls, changes and warnings stay the training mix's
+            report_under_prior(
+                summary["stretches"], summary["changes"], summary["alarms"], model.condition,
+                healthy_prior,
+            )  # fmt: skip
+            summary["notes"].append(model.condition.prior_note(healthy_prior))
+        return summary
+
+    # a record still being written (a followed file, standard input): its alarms on the way
+    live = LiveAlarms(summarise, settings.hop) if settings.follow else None
+    progress = None if quiet else _progress_printer(trace_file, live)
+    try:
+        table = monitor_trace(trace_file, model, settings, progress=progress)
+    except TraceError as exc:
+        raise InputError(str(exc)) from None
+    finally:
+        gc.unfreeze()
+    summary = summarise(table)
+    windows = table.frame()
+    if healthy_prior is not None:
         windows = model.condition.move_to_prior(windows, healthy_prior)
-        summary["notes"].append(model.condition.prior_note(healthy_prior))
     # the model's own features served the stretch model; the table keeps those it kept before
     # (~0.2 s an hour of 50 kHz trace to write them all)
     spare = [c for c in kept_features(model) if c not in (*KEPT_FEATURES, "omega_rad_s")]
@@ -409,8 +423,9 @@ def _report(out, windows, summary, interrupted: bool, quiet: bool) -> None:
         click.echo(f"wrote {out}/windows.parquet, summary.json, monitor.png")
 
 
-def _progress_printer(trace_file: str, every_s: float = 2.0):
-    """Progress lines on stderr, at most one per ``every_s`` of wall time."""
+def _progress_printer(trace_file: str, live=None, every_s: float = 2.0):
+    """Progress lines on stderr, at most one per ``every_s`` of wall time, and the new alarms
+    that ``live`` (:class:`~signatelec.estimation.monitor_report.LiveAlarms`) finds."""
     import time
 
     total = None
@@ -424,6 +439,8 @@ def _progress_printer(trace_file: str, every_s: float = 2.0):
     last = [time.monotonic()]
 
     def show(table) -> None:
+        for line in live(table) if live is not None else ():
+            click.echo(f"signatelec: monitor: {line}", err=True)
         now = time.monotonic()
         if now - last[0] < every_s or not table.sample_rate_hz:
             return

@@ -206,6 +206,45 @@ def qualify_alarms(alarms: list[dict], stretches: list[dict]) -> None:
         a["confident"] = not warned
 
 
+class LiveAlarms:
+    """The alarms of a record still being read (a followed file, standard input), on the way:
+    ``summarise(table)`` gives the summary of the windows answered so far (the output's own,
+    :func:`summary_of`), read again whenever windows were answered (every 100 when following:
+    20 s of record at a 0.2 s hop), but in no more than a tenth of the wall time (it reads
+    every window so far again). Each alarm is told once, marked provisional: the summary
+    written at the end, from the whole record, is the answer (a change found near the end of
+    what was read may move, or go, as windows arrive). An alarm of the same kind within 1.5
+    hops (``hop_s``) of one told is that one."""
+
+    def __init__(self, summarise, hop_s: float):
+        self.summarise, self.hop_s = summarise, hop_s
+        self.told: list[tuple[str, float]] = []
+        self.next_s, self.windows = -math.inf, 0
+
+    def __call__(self, table) -> list[str]:
+        """Lines of the alarms not told before."""
+        import time
+
+        start = time.monotonic()
+        if start < self.next_s or table.n_windows == self.windows:
+            return []
+        self.windows = table.n_windows
+        alarms = self.summarise(table)["alarms"]
+        self.next_s = start + 10.0 * (time.monotonic() - start)
+        lines = []
+        for a in alarms:
+            kind, t = a["kind"], a["time_s"]
+            if any(k == kind and abs(x - t) <= 1.5 * self.hop_s for k, x in self.told):
+                continue
+            self.told.append((kind, t))
+            sure = "" if a.get("confident", True) else "; not confident"
+            lines.append(
+                f"alarm at {time_text(t)} s (provisional): {a['what']} (probability "
+                f"{a['probability']:.3f}{sure})"
+            )
+        return lines
+
+
 def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=None) -> dict:
     """The content of ``summary.json``; ``model``: the load-state model, whose training ranges
     (and its faulty model's) the stretches are qualified against (:func:`qualify`)."""
