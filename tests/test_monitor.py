@@ -638,6 +638,46 @@ def test_alarms_are_told_on_the_way_when_following(model_file, tiles, tmp_path, 
     assert line.startswith("alarm at 35 s (provisional): load") and answered == [50, 100, 200]
 
 
+def test_a_model_other_than_the_default_is_read_with_its_windows_own_intervals(
+    model_file, tiles, tmp_path
+):
+    """The model part of a stretch's interval was calibrated on the default model (its ratios,
+    0.06-0.73 of a window's interval sd): another model's stretch is at least as wide as its
+    windows' own intervals (ratio 1), with a note saying why, and covers the tiles' F_r; the
+    default model's ratios stay the shipped ones."""
+    from signatelec.estimation.evidence import bias_ratios
+    from signatelec.estimation.persistence import load_model, save_model
+    from signatelec.estimation.training import DEFAULT_SOURCE
+
+    model = load_model(model_file)
+    assert bias_ratios(model) is not None
+    default = load_model(model_file)
+    default.info["trained_on"] = DEFAULT_SOURCE
+    assert bias_ratios(default) is None
+    save_model(default, tmp_path / "default.model")
+    t, r, _ = _record(tiles, [("low", 6.0), ("high", 6.0)], seed=13)
+    path = _write(tmp_path / "rec.parquet", t, r)
+    out = {}
+    for name, file in (("other", model_file), ("default", tmp_path / "default.model")):
+        args = ["monitor", str(path), "--out", str(tmp_path / name), "--omega", "500"]
+        assert run_main([*args, "--model", str(file), "--quiet"]) == 0
+        out[name] = json.loads((tmp_path / name / "summary.json").read_text())
+    windows = pd.read_parquet(tmp_path / "other" / "windows.parquet")
+    for s, load, wide in zip(
+        out["other"]["stretches"], (5000.0, 6500.0), out["default"]["stretches"], strict=True
+    ):
+        half = math.log(s["radial_load_n_high"] / s["radial_load_n_low"]) / 2
+        mine = windows[(windows["start_s"] >= s["start_s"]) & (windows["end_s"] <= s["end_s"])]
+        own = np.log(mine["radial_load_n_high"] / mine["radial_load_n_low"]).median() / 2
+        assert half >= 0.95 * own and s["radial_load_n_low"] <= load <= s["radial_load_n_high"]
+        assert wide["radial_load_n_high"] - wide["radial_load_n_low"] < 0.8 * (
+            s["radial_load_n_high"] - s["radial_load_n_low"]
+        )
+    told = "the stretches' intervals are at least as wide as their windows' own"
+    assert any(n.startswith(told) for n in out["other"]["notes"])
+    assert not any(n.startswith(told) for n in out["default"]["notes"])
+
+
 # --- bad input ----------------------------------------------------------------------------------
 
 

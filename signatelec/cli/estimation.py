@@ -290,6 +290,7 @@ def monitor(
     from signatelec.cli.common import claim_output, write_output
     from signatelec.estimation.condition import check_healthy_prior
     from signatelec.estimation.evidence import (
+        bias_ratios,
         check_settings,
         report_under_prior,
         stretches_and_changes,
@@ -371,6 +372,7 @@ def monitor(
             settings.hop,
             false_alarm_rate,
             load_threshold,
+            bias_ratios(model),
             # the seed's bearing's load-state models (another's windows carry no load state)
             stretch_model=model.stretch if settings.load_state else None,
             faulty_model=model.faulty if settings.load_state else None,

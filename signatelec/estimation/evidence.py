@@ -93,6 +93,12 @@ BIAS_RATIO_WINDOWS = {
 RATIOS_BY_SOURCE = {"mean features": BIAS_RATIO, "windows": BIAS_RATIO_WINDOWS}
 #: The category of a stretch without an estimated regime.
 ANY_REGIME = "any"
+#: The ratio of a model whose stretches were not calibrated (any but the default model): a
+#: stretch's model part is then its windows' own interval sd, so that its interval is at least
+#: as wide as theirs (the windows' intervals cover the model's error over the states it learnt;
+#: the shipped ratios, 0.06-0.73, are the default model's, and with them a 6208's model trained
+#: by a user missed its F_r in 5 of 5 stretches of a record).
+UNCALIBRATED_RATIO = 1.0
 #: Class outputs of the model, each with ``<name>_probability_<class>`` columns.
 CLASS_OUTPUTS = ("regime", "condition")
 #: Regression targets and the scale they are combined on.
@@ -157,6 +163,19 @@ def _named(name: str, probs: dict[str, float] | None) -> dict:
     best = max(probs, key=probs.get)
     named = {name: best, f"{name}_probability": probs[best]}
     return named | {f"{name}_probability_{k}": v for k, v in probs.items()}
+
+
+def bias_ratios(model) -> dict | None:
+    """The ratios a stretch of ``model``'s windows is read with (:func:`combine_stretch`'s
+    ``bias_ratio``): None, the shipped ones, for the default model, on which they were
+    calibrated (``signatelec study monitor``); else :data:`UNCALIBRATED_RATIO` for every target
+    and regime."""
+    from signatelec.estimation.training import DEFAULT_SOURCE
+
+    if model is None or model.info.get("trained_on") == DEFAULT_SOURCE:
+        return None
+    one = {target: {ANY_REGIME: UNCALIBRATED_RATIO} for target in TARGET_SCALES}
+    return dict.fromkeys(RATIOS_BY_SOURCE, one)
 
 
 def combine_stretch(

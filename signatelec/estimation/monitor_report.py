@@ -28,6 +28,7 @@ import pandas as pd
 from signatelec._version import __version__
 from signatelec.config.bearing import same_bearing
 from signatelec.config.constraints import HEALTHY
+from signatelec.estimation.evidence import bias_ratios
 from signatelec.measurement.traces import daylight_saving, time_text
 
 FILES = ("windows.parquet", "summary.json", "monitor.png")
@@ -260,6 +261,12 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
         faulty.info.get("ranges") if faulty is not None else None,
         condition,
     )
+    if stretches and any("radial_load_n" in x for x in stretches) and bias_ratios(model):
+        notes.append(
+            "the stretches' intervals are at least as wide as their windows' own: the error "
+            "this model makes on a state, which its windows share, was not calibrated "
+            "(`signatelec study monitor` calibrates the default model's)"
+        )
     if table.time_origin_utc is not None:
         notes.append(
             f"times are seconds after the record's first timestamp, {table.time_origin_utc} "
