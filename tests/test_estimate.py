@@ -494,6 +494,42 @@ def test_estimate_example_json(small_model, tmp_path, capsys):
     assert res["radial_load_n"] == pytest.approx(7000.0, rel=0.05)  # the example's load
 
 
+def test_an_atypical_trace_calls_no_regime_confidently(small_model, monkeypatch):
+    """Features as atypical as the 1 % most atypical training traces (in-domain score below
+    WARN_SCORE, above the refusal): the answer is given with its warning, and a regime call of
+    0.99 is not confident, as the monitor's stretches are not."""
+    from signatelec.estimation.domain import REFUSE_SCORE, WARN_SCORE
+    from signatelec.measurement.files import read_trace
+    from signatelec.measurement.traces import prepare_trace
+
+    model = load_model(small_model)
+    predict_one = model.predict_one
+
+    def sure(features):
+        return predict_one(features) | {
+            f"regime_probability_{r}": float(r == "zero") for r in REGIMES
+        }
+
+    monkeypatch.setattr(model, "predict_one", sure)
+    t, r, _ = read_trace(EXAMPLE)
+    trace = prepare_trace(t, r, 500.0)
+    assert estimate(trace, 500.0, model)["regime_confident"] is True
+    low = (REFUSE_SCORE * WARN_SCORE) ** 0.5
+
+    class Atypical:  # the model's domain, every trace scored ``low``
+        def __getattr__(self, name):
+            return getattr(domain, name)
+
+        def score(self, features):
+            return low
+
+    domain = model.domain
+    monkeypatch.setattr(model, "domain", Atypical())
+    result = estimate(trace, 500.0, model)
+    assert result["regime_confident"] is False and result["in_domain_score"] == low
+    assert any("extrapolation, so no regime call is confident" in n for n in result["notes"])
+
+
 @pytest.mark.parametrize(
     ("probabilities", "confident"), [((0.9, 0.06, 0.04), True), ((0.52, 0.08, 0.40), False)]
 )
