@@ -742,6 +742,12 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
     p = tmp / "latin.csv"  # a byte that is not UTF-8 in the resistance column
     p.write_bytes(b"time_s,resistance_ohm\n0,0.0025\n5e-5,0.0025\xe4\n")
     cases["latin1_in_column"] = (p, "column 'resistance_ohm' holds text at row 1")
+    p = tmp / "simulated"  # a simulation's clean signals (their phase column tells them)
+    assert _run(["simulate", "--fidelity", "quasistatic", "--quiet", "--out", str(p)]) == 0
+    cases["clean_simulation"] = (
+        p / "signals.parquet",
+        "a simulation's signals carry no meter's noise, which every training trace has",
+    )
     return cases
 
 
@@ -764,6 +770,7 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
         "directory",
         "timestamps_for_resistance",
         "latin1_in_column",
+        "clean_simulation",
     ],
 )
 def test_estimate_refuses(small_model, tmp_path, capsys, case):

@@ -155,7 +155,8 @@ def estimate(
     try:
         result = run_estimate(trace, omega_rad_s, model, bearing=bearing)
     except (TraceError, DomainError) as exc:
-        raise InputError(str(exc)) from None
+        simulated = isinstance(exc, DomainError) and phase is not None
+        raise InputError(str(exc) + (SIMULATED if simulated else "")) from None
     if healthy_prior is not None:
         result = under_prior(result, model.condition, healthy_prior)
     if out is not None:
@@ -423,6 +424,15 @@ def _report(out, windows, summary, interrupted: bool, quiet: bool) -> None:
     if not quiet:
         click.echo(format_summary(summary))
         click.echo(f"wrote {out}/windows.parquet, summary.json, monitor.png")
+
+
+#: What a simulation's output refused as unlike the training traces lacks (its ``phase``
+#: column tells it): a clean DEM trace's residual is the ball set's own, spiky and coloured
+#: (noise kurtosis ~15, colour ~3, where a meter's white noise gives ~3 and ~1).
+SIMULATED = (
+    "; a simulation's signals carry no meter's noise, which every training trace has: "
+    "`signatelec generate` applies the measurement model (noise, drift, offset) to its traces"
+)
 
 
 def _progress_printer(trace_file: str, live=None, every_s: float = 2.0):
