@@ -281,3 +281,37 @@ def test_dataset_traces_are_the_same_batched_or_one_by_one():
                 assert rec[key] == pytest.approx(value, rel=TOLERANCE, abs=0.0), key
             else:
                 assert rec[key] == value or (pd.isna(rec[key]) and pd.isna(value)), key
+
+
+def test_each_batched_trace_carries_its_own_warnings_only():
+    """A trace's warnings are those of its own run: batched as alone. A light load (210 N on a
+    6208) concentrates the 0.1 A in small Hertz contacts, above the seed's 0.1 A/mm^2
+    (section 3), while 2000 N spreads it below; run in one lane group, the heavy trace must not
+    carry the light one's current-density warning."""
+    spec = spec_from_dict(
+        SPEC
+        | {
+            "dataset": SPEC["dataset"] | {"fidelity": "fast"},
+            "design": [
+                {
+                    "kind": "grid",
+                    "factors": {
+                        "radial_load_n": {"values": [210.0, 2000.0]},
+                        "clearance_m": {"values": [30e-6]},
+                        "omega_rad_s": {"values": [250.0]},
+                    },
+                }
+            ],
+            "scene": {"bearing": {"designation": "6208"}},
+        }
+    )
+    ctx, tasks = spec.context, design_traces(spec)
+    assert batched(ctx)
+    together = run_traces(ctx, tasks)
+    alone = [run_trace(ctx, task) for task in tasks]
+    by_load = {rec["radial_load_n"]: rec["warnings"] for rec in together}
+    assert "CurrentDensityWarning" in by_load[210.0]
+    assert by_load[2000.0] == ""
+    for rec, own in zip(together, alone, strict=True):
+        assert rec["status"] == own["status"] == "ok"
+        assert rec["warnings"] == own["warnings"]

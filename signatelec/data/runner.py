@@ -274,8 +274,12 @@ def _failed(rec: dict, exc: Exception) -> None:
     rec.update(dict.fromkeys(SIGNALS, np.zeros(0)))
 
 
+def _key(w) -> str:
+    return f"{w.category.__name__}: {w.message}"
+
+
 def _warnings(caught) -> str:
-    return " | ".join(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+    return " | ".join(dict.fromkeys(_key(w) for w in caught))
 
 
 def run_trace(ctx: TraceContext, task: TraceTask) -> dict:
@@ -336,16 +340,21 @@ def run_traces(ctx: TraceContext, tasks: list[TraceTask]) -> list[dict]:
             results = simulate_batch([r[1] for r in ready], lanes=LANES, return_exceptions=True)
         except SceneError:  # a scene the batch refuses: each on its own, with its own error
             results = [None] * len(ready)
+    # what the batch warned beside its scenes' own warnings (a kernel cache, say) is every
+    # trace's; a scene's own warnings are its trace's alone
+    own_keys = {_key(w) for r in results if isinstance(r, SimulationResult) for w in r.warnings}
+    batch_wide = [w for w in shared if _key(w) not in own_keys]
     for (i, scene, t0, n), result in zip(ready, results, strict=True):
         rec = recs[i]
         try:
-            if not isinstance(result, SimulationResult):
-                # alone, as run_trace: its own error, a divergence with its measured cure
-                result = simulate(scene)
+            own = result.warnings if isinstance(result, SimulationResult) else []
             with warnings.catch_warnings(record=True) as more:
                 warnings.simplefilter("always")
+                if not isinstance(result, SimulationResult):
+                    # alone, as run_trace: its own error, a divergence with its measured cure
+                    result = simulate(scene)
                 _measure(ctx, tasks[i], rec, result, t0, n)
-            rec["warnings"] = _warnings([*caught[i], *shared, *more])
+            rec["warnings"] = _warnings([*caught[i], *batch_wide, *own, *more])
         except Exception as exc:
             if not isinstance(exc, (*_TRACE_ERRORS, RuntimeError)):
                 raise

@@ -68,6 +68,11 @@ class SimulationResult:
     stability: object | None = None  # physics.stability.StabilityLimit for a DEM run
     out_dir: Path | None = None
     steady_signal_means: dict | None = None
+    #: The warnings this scene's own run gave (``warnings.WarningMessage``), filled by
+    #: :func:`~signatelec.engines.dem.batch.simulate_batch`, whose scenes run together so that
+    #: catching warnings around the call cannot tell whose each one is; empty otherwise (a
+    #: single run's warnings are the ones raised during the call).
+    warnings: list = field(default_factory=list)
 
     def steady(self, table: str = "signals", settle_s: float = 0.0) -> pd.DataFrame:
         """Rows of the steady-running phase, from ``settle_s`` after the set-up ends."""

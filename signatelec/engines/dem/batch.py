@@ -14,6 +14,7 @@ durations in one lane group).
 from __future__ import annotations
 
 import time
+import warnings
 from collections import defaultdict
 
 import numpy as np
@@ -106,8 +107,9 @@ def _run_group(spec: KernelSpec, scenes: list[Scene], limits: list, lanes: int) 
             out.append(DivergenceError(message))
             continue
         n_rec = scene.n_steps // scene.record_every
-        out.append(
-            dem_result(
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = dem_result(
                 scene,
                 _recording(kern, rec, lane),
                 n_rec,
@@ -117,8 +119,20 @@ def _run_group(spec: KernelSpec, scenes: list[Scene], limits: list, lanes: int) 
                 run_s[lane],
                 run_cpu_s[lane],
             )  # fmt: skip
-        )
+        result.warnings.extend(caught)
+        out.append(result)
     return out
+
+
+def _post_process(result: SimulationResult) -> SimulationResult:
+    """``engines.simulate.post_process`` of one scene's result, its warnings kept with it."""
+    from signatelec.engines.simulate import post_process
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = post_process(result)
+    result.warnings.extend(caught)
+    return result
 
 
 def simulate_batch(
@@ -131,6 +145,10 @@ def simulate_batch(
     above its stability limit, before anything runs; a :class:`DivergenceError` for a scene
     that diverges (its message names the step, body and contact; no cure is probed) or, with
     ``return_exceptions``, the error in that scene's place.
+
+    Each result holds the warnings of its own scene's run (``result.warnings``: the scenes run
+    together, so catching around the call cannot tell whose each one is); they are also
+    warned again, after the batch, as a single run would warn them.
     """
     from signatelec.engines.budget import check_run
 
@@ -153,9 +171,10 @@ def simulate_batch(
             group = _run_group(spec, [scenes[i] for i in chunk], [limits[i] for i in chunk], lanes)
             for i, res in zip(chunk, group, strict=True):
                 results[i] = res
-    from signatelec.engines.simulate import post_process
-
-    results = [r if isinstance(r, Exception) else post_process(r) for r in results]
+    results = [r if isinstance(r, Exception) else _post_process(r) for r in results]
+    for res in results:  # each scene's warnings, told to the caller as a single run tells them
+        for w in [] if isinstance(res, Exception) else res.warnings:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if not return_exceptions:
         for res in results:
             if isinstance(res, Exception):
