@@ -7,17 +7,21 @@ speed, cage and clearance, and the runs complete and settle on the quasi-static 
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 
 import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 
 from signatelec.cli import cli
 from signatelec.config.catalogue import CATALOGUE, catalogue_bearing
 from signatelec.config.scene import AUTO, Scene, SceneError
-from signatelec.engines.results import DivergenceError
+from signatelec.engines.fidelity import apply_fidelity
+from signatelec.engines.results import DivergenceError, record_rate_hz
 from signatelec.engines.simulate import simulate
 from signatelec.physics.contact import hertz_overlap
 from signatelec.physics.electrical import DENSITY_LIMIT_A_M2
@@ -29,6 +33,7 @@ from signatelec.physics.stability import (
     SPIN_UP_MIN_S,
     TRACTION_SHARE,
     chain_contact,
+    record_grid_dt_s,
     stability_limit,
     traction_spin_up_time_s,
 )
@@ -55,7 +60,11 @@ def test_chosen_dt_is_within_the_stability_limit_at_every_rated_speed(designatio
             limit = stability_limit(scene).dt_limit_s
             assert scene.numerics.dt_s <= DT_MARGIN * limit * (1 + 1e-12)
             assert scene.numerics.dt_s <= DT_ACCURACY_S
-            assert scene.numerics.dt_s == min(DT_ACCURACY_S, DT_MARGIN * limit)
+            rate = scene.numerics.sample_rate_hz
+            assert scene.numerics.dt_s == record_grid_dt_s(
+                min(DT_ACCURACY_S, DT_MARGIN * limit), rate
+            )
+            assert scene.record_every * scene.numerics.dt_s * rate == pytest.approx(1, rel=1e-12)
             assert scene.numerics.duration_s > scene.setup_time_s
 
 
@@ -181,6 +190,47 @@ def test_scene_designation_and_cli(tmp_path):
     assert csv.exit_code == 0 and csv.output.count("\n") == len(CATALOGUE) + 1
     bad = CliRunner().invoke(cli, ["simulate", "--bearing", "6209", "--out", str(tmp_path)])
     assert bad.exit_code == 2 and "--bearing '6209': bearing.designation" in bad.output
+
+
+@pytest.mark.parametrize("fidelity", ["fast", "balanced"])
+@pytest.mark.parametrize("rate_hz", [20000.0, 12345.0])
+def test_a_presets_step_records_at_the_rate_asked(fidelity, rate_hz):
+    """The kernel records every round(1 / (rate dt)) steps: the preset's 0.9 x stability limit
+    (1.37e-6 s on a 6208 at 5000 N) recorded every 37 steps, at 19782 Hz for 20 kHz asked. Its
+    step is the largest below that fraction with a whole number k of steps per recorded
+    instant (k - 1 < period / preset step <= k), so it shrinks by less than one part in k."""
+    base = Scene(bearing=catalogue_bearing("6208")).with_overrides(sample_rate_hz=rate_hz)
+    for load_n in (2000.0, 5000.0, 8000.0, 12000.0):
+        scene = apply_fidelity(base.with_overrides(radial_load_n=load_n), fidelity)
+        dt, k = scene.numerics.dt_s, scene.record_every
+        assert k * dt == pytest.approx(1.0 / rate_hz, rel=1e-12)
+        assert record_rate_hz(scene) == pytest.approx(rate_hz, rel=1e-12)
+        preset_dt = 0.9 * stability_limit(scene).dt_limit_s
+        assert preset_dt * (k - 1) / k < dt <= preset_dt * (1 + 1e-12)
+
+
+def test_simulate_records_at_the_rate_asked_or_says_at_which(tmp_path):
+    """--fidelity balanced writes its instants 1/20000 s apart, as the metadata says; a --dt
+    off the record grid (3e-7 s: every 167 steps, 1 / (167 x 3e-7 s) = 19960.1 Hz) is warned
+    with the rate it records at, which the metadata holds."""
+    for name, args, rate_hz in (
+        ("preset", ["--fidelity", "balanced"], 20000.0),
+        ("dt", ["--dt", "3e-7"], 1.0 / (167 * 3e-7)),
+    ):
+        out = tmp_path / name
+        res = CliRunner().invoke(
+            cli,
+            ["simulate", "--bearing", "6208", "--duration", "0.01", *args, "--out", str(out)],
+        )
+        assert res.exit_code == 0, res.output
+        time_s = pd.read_parquet(out / "signals.parquet", columns=["time_s"])["time_s"]
+        assert 1.0 / np.diff(time_s).mean() == pytest.approx(rate_hz, rel=1e-9)
+        meta = json.loads(pq.read_schema(out / "signals.parquet").metadata[b"signatelec"])
+        assert meta["timings"]["record_rate_hz"] == pytest.approx(rate_hz, rel=1e-12)
+        warned = (
+            "sample rate 20000 Hz asked, but dt = 3e-07 s records every 167 steps, at 19960.1 Hz"
+        )
+        assert (warned in res.output) == (name == "dt"), res.output
 
 
 def test_simulate_prints_what_it_chose(tmp_path):

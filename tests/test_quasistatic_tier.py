@@ -290,7 +290,10 @@ def test_presets():
         # a density multiplied then divided back, a product: round-off at most (measured: 0)
         assert cage_mass_scale(scene) == pytest.approx(preset.cage_mass_scale, rel=1e-15)
         limit = stability_limit(scene).dt_limit_s
-        assert scene.numerics.dt_s == pytest.approx(preset.dt_limit_fraction * limit, rel=1e-15)
+        # the fraction of the limit, brought down to a whole number of steps per recorded instant
+        period_s = 1.0 / scene.numerics.sample_rate_hz
+        steps = math.ceil(period_s / (preset.dt_limit_fraction * limit))
+        assert scene.numerics.dt_s == pytest.approx(period_s / steps, rel=1e-15)
         # the scaled cage survives the scene's JSON round trip (written with every result)
         assert Scene.from_dict(scene.to_dict()) == scene
         # presets do not compound; "reference" undoes the mass scaling

@@ -120,6 +120,7 @@ def simulate(
             write_output(lambda: results.append(run(scene, progress=not quiet, out_dir=out)))
         for w in caught:
             click.echo(f"signatelec: warning: {w.message}", err=True)
+        _warn_record_rate(scene)
     except SceneError as exc:
         raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
     except DivergenceError as exc:
@@ -127,6 +128,22 @@ def simulate(
     result = results[0]
     if not quiet:
         click.echo(summary(result, out))
+
+
+def _warn_record_rate(scene) -> None:
+    """One line when a time step given off the record grid makes the run record at another
+    rate than asked (the outputs' timings hold the rate recorded, record_rate_hz)."""
+    from signatelec.engines.results import record_rate_hz
+
+    asked, recorded = scene.numerics.sample_rate_hz, record_rate_hz(scene)
+    if abs(recorded / asked - 1.0) > 1e-9:
+        click.echo(
+            f"signatelec: warning: sample rate {asked:g} Hz asked, but dt = "
+            f"{scene.numerics.dt_s:.6g} s records every {scene.record_every} steps, at "
+            f"{recorded:.6g} Hz (timings record_rate_hz); a dt that divides "
+            f"1/{asked:g} s records at the rate asked",
+            err=True,
+        )
 
 
 @cli.command()

@@ -94,7 +94,9 @@ def trace_scene(ctx: TraceContext, scene: Scene) -> tuple[Scene, float, int]:
     from signatelec.engines.fidelity import apply_fidelity
 
     m = ctx.measurement
-    scene = apply_fidelity(scene, ctx.fidelity)
+    # the measurement resamples the records at its own rate, so the step stays the preset's
+    # (simulation_rate_hz is the rate recorded)
+    scene = apply_fidelity(scene, ctx.fidelity, record_grid=False)
     dt = scene.numerics.dt_s
     n = int(round(ctx.duration_s * m.sample_rate_hz))
     t0 = scene.setup_time_s + ctx.settle_s + m.guard_s

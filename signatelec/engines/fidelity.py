@@ -126,13 +126,17 @@ def scale_cage_mass(scene: Scene, factor: float) -> Scene:
         raise SceneError(f"cage mass scale {factor:g}: {exc}") from None
 
 
-def apply_fidelity(scene: Scene, fidelity: str | Preset) -> Scene:
+def apply_fidelity(scene: Scene, fidelity: str | Preset, *, record_grid: bool = True) -> Scene:
     """The scene at ``fidelity``: a tier (``"quasistatic"``, ``"dem"``), a preset's name or a
     :class:`Preset` (the accuracy-cost study's settings are presets too).
 
     A preset sets, in this order, its effects, the cage-mass scaling, the integrator and the time
     step (absolute, or from the stability limit of the scene as it then is: load, clearance and
-    speed matter); the rest of the scene is kept. Unknown names raise :class:`SceneError`.
+    speed matter), with ``record_grid`` brought down to the grid of the scene's record rate
+    (:func:`~signatelec.physics.stability.record_grid_dt_s`: the run records at
+    ``numerics.sample_rate_hz`` exactly, so set the rate before the preset; without it, a
+    caller that resamples the records itself saves the up to 1/k more steps, k the steps per
+    recorded instant); the rest of the scene is kept. Unknown names raise :class:`SceneError`.
     """
     if isinstance(fidelity, Preset):
         preset = fidelity
@@ -146,9 +150,11 @@ def apply_fidelity(scene: Scene, fidelity: str | Preset) -> Scene:
     scene = scale_cage_mass(
         scene.with_overrides(**overrides, **dict(preset.effects)), preset.cage_mass_scale
     )
+    from signatelec.physics.stability import record_grid_dt_s, stability_limit
+
     dt_s = preset.dt_s
     if preset.dt_limit_fraction is not None:
-        from signatelec.physics.stability import stability_limit
-
         dt_s = preset.dt_limit_fraction * float(stability_limit(scene).dt_limit_s)
+    if record_grid:  # a whole number of steps per recorded instant: the rate asked
+        dt_s = record_grid_dt_s(dt_s, scene.numerics.sample_rate_hz)
     return scene.with_overrides(dt_s=dt_s)

@@ -52,6 +52,15 @@ def phase_times(scene: Scene) -> tuple[float, float, float]:
     return t1, t2, t3
 
 
+def record_rate_hz(scene: Scene) -> float:
+    """The rate a run of ``scene`` records at, Hz: an instant every ``scene.record_every`` steps.
+    It is ``numerics.sample_rate_hz`` when dt divides the record period a whole number of times
+    (the automatic and the presets' steps do:
+    :func:`~signatelec.physics.stability.record_grid_dt_s`); a step given off that grid records
+    at the nearest whole number of steps (dt = 1.366e-6 s at 20 kHz: 19782 Hz)."""
+    return 1.0 / (scene.record_every * scene.numerics.dt_s)
+
+
 @dataclass
 class SimulationResult:
     """Outcome of :func:`simulate`: the scene, tables of balls and signals, timings.

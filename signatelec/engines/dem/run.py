@@ -33,6 +33,7 @@ from signatelec.engines.results import (
     DivergenceError,
     SimulationResult,
     phase_times,
+    record_rate_hz,
     to_frame,
 )
 from signatelec.engines.stream import STREAM_BLOCK_INSTANTS, TableStream, arrow_table
@@ -459,6 +460,7 @@ def dem_timings(scene: Scene, limit, kernel: str, compile_s, run_s, run_cpu_s) -
         "cpu_us_per_step": 1e6 * run_cpu_s / max(n_steps, 1),
         "kernel": kernel,
         "dt_s": scene.numerics.dt_s,
+        "record_rate_hz": record_rate_hz(scene),
         "spin_up_time_s": scene.procedure.spin_up_time_s,
         "duration_s": scene.numerics.duration_s,
         "stability_limit_s": limit.dt_limit_s,

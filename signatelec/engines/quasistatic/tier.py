@@ -77,7 +77,13 @@ import numpy as np
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.scene import Scene
 from signatelec.engines.quasistatic.period import PeriodMap, ball_angles_rad, use_period_map
-from signatelec.engines.results import PHASES, SimulationResult, phase_times, to_frame
+from signatelec.engines.results import (
+    PHASES,
+    SimulationResult,
+    phase_times,
+    record_rate_hz,
+    to_frame,
+)
 from signatelec.physics.contact import NORMAL_LAWS
 from signatelec.physics.defects import clearance_offsets_m, tabulated_loads_n
 from signatelec.physics.laws import scene_law
@@ -365,6 +371,7 @@ def simulate_quasistatic(
         "us_per_step": 0.0,
         "n_instants": int(n_rec),
         "us_per_instant": 1e6 * run_s / max(n_rec, 1),
+        "record_rate_hz": record_rate_hz(scene),
     }
     if "electrical_s" in spent:
         timings["electrical_s"] = spent.pop("electrical_s")
