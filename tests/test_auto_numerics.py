@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import warnings
 
 import numpy as np
@@ -23,6 +24,8 @@ from signatelec.config.scene import AUTO, Scene, SceneError
 from signatelec.engines.fidelity import apply_fidelity
 from signatelec.engines.results import DivergenceError, record_rate_hz
 from signatelec.engines.simulate import simulate
+from signatelec.measurement.band import MIN_BALL_PASSES
+from signatelec.measurement.traces import TraceError, prepare_trace
 from signatelec.physics.contact import hertz_overlap
 from signatelec.physics.electrical import DENSITY_LIMIT_A_M2
 from signatelec.physics.laws import chain_force_n, scene_law
@@ -307,3 +310,47 @@ def test_the_automatic_spin_up_leaves_a_zero_load_ball_set_rolling():
     steady = sig[sig.phase == "steady"]
     kinematic = bearing.cage_speed_rad_s(32.76)
     assert steady.cage_speed_rad_s.mean() == pytest.approx(kinematic, rel=0.01)
+
+
+@pytest.mark.parametrize("designation", ["6208", "seed", "6308"])
+@pytest.mark.parametrize("omega", [20.0, 50.0, 120.0])
+def test_the_automatic_duration_is_long_enough_to_estimate(designation, omega):
+    """At low speed the automatic duration is set by ball passes, not by the seed's 23 ms: its
+    steady phase, as recorded (N instants 1/rate apart, N / rate of trace), must hold the ball
+    passes ``signatelec estimate`` needs (measurement.band.MIN_BALL_PASSES) with a whole pass to
+    spare, since the recorded grid falls a fraction of an instant short of the phase. The
+    quasi-static tier records the DEM's steady instants (engines/quasistatic/tier.py)."""
+    scene = Scene(bearing=catalogue_bearing(designation)).with_overrides(
+        omega_rad_s=omega, fidelity="quasistatic"
+    )
+    signals = simulate(scene).signals
+    rate_hz = scene.numerics.sample_rate_hz
+    passes_hz = scene.bearing.ball_pass_frequency_hz(omega)
+    passes = len(signals) / rate_hz * passes_hz
+    # the phase's ends fall between recorded instants: up to two of them fewer
+    assert passes >= MIN_BALL_PASSES + 1.0 - 2.0 * passes_hz / rate_hz
+    trace = prepare_trace(
+        signals["time_s"], signals["resistance_ohm"], omega, bearing=scene.bearing
+    )
+    assert trace.resistance_ohm.size == len(signals)
+
+
+def test_a_trace_just_short_of_the_passes_needed_is_not_told_it_has_them():
+    """A trace one sample short of MIN_BALL_PASSES (4.9996 passes of a 6208 at 50 rad/s, 20 kHz)
+    is refused, and the refusal writes its length below the length needed, in passes and in ms
+    (it had read '177 ms is 5 ball passes ... at least 5 (177 ms) are needed')."""
+    bearing, omega, rate_hz = catalogue_bearing("6208"), 50.0, 20000.0
+    passes_hz = bearing.ball_pass_frequency_hz(omega)
+    n = math.ceil(MIN_BALL_PASSES / passes_hz * rate_hz) - 1
+    t = np.arange(n) / rate_hz
+    r = 3e-3 * (1.0 + 0.01 * np.sin(2.0 * math.pi * passes_hz * t))
+    with pytest.raises(TraceError) as info:
+        prepare_trace(t, r, omega, bearing=bearing)
+    found = re.search(
+        r"too short: ([\d.]+) ms is ([\d.]+) ball passes .*at least ([\d.]+) \(([\d.]+) ms\)",
+        str(info.value),
+    )
+    assert found, str(info.value)
+    have_ms, have, need, need_ms = map(float, found.groups())
+    assert have < need == MIN_BALL_PASSES and have_ms < need_ms
+    assert have == pytest.approx(n / rate_hz * passes_hz, rel=1e-3)

@@ -80,9 +80,11 @@ class SceneError(ValueError):
 #: The value of a setting the scene chooses itself (see :func:`resolve_auto`).
 AUTO = "auto"
 #: Steady running an automatic duration keeps after the set-up: the seed's (30 ms - 7 ms set-up),
-#: or STEADY_BALL_PASSES outer-race ball passes when they take longer (low speeds), s.
+#: or STEADY_BALL_PASSES outer-race ball passes when they take longer (low speeds), s. The
+#: passes are the 5 an estimate needs (measurement.band.MIN_BALL_PASSES) and one to spare: the
+#: steady phase's recorded instants fall a fraction of one short of the phase.
 STEADY_MIN_S = 0.023
-STEADY_BALL_PASSES = 5
+STEADY_BALL_PASSES = 6
 
 
 #: Keys the earlier layout had under [effects], and the section that holds them now.

@@ -140,6 +140,17 @@ def daylight_saving(jump_s: float) -> str:
     )
 
 
+def short_of(value: float, needed: float) -> tuple[str, str]:
+    """``value`` and the larger ``needed`` written with the fewest significant digits (3 at
+    least) that still show the first below the second: a shortfall is not rounded up to the
+    requirement (4.9996 of 5 ball passes is "4.9996", not "5")."""
+    for digits in range(3, 17):
+        have, need = f"{value:.{digits}g}", f"{needed:.{digits}g}"
+        if float(have) < float(need):
+            return have, need
+    return repr(value), repr(needed)
+
+
 def time_text(t_s: float) -> str:
     """A time in seconds as messages give it: to the microsecond, trailing zeros dropped (a
     logger's clock may read 1.7e9 s, where 6 significant digits say nothing)."""
@@ -345,10 +356,11 @@ def prepare_trace(
                 and fs >= minimum_sample_rate_hz(om, bearing=bearing)
             ),
         )
+        have_ms, need_ms = short_of(duration * 1e3, min_ball_passes / f_bp * 1e3)
+        have, need = short_of(passes, min_ball_passes)
         raise TraceError(
-            f"{where}: too short: {duration * 1e3:.3g} ms is {passes:.2g} ball passes at "
-            f"{omega_rad_s:g} rad/s; at least {min_ball_passes:g} "
-            f"({min_ball_passes / f_bp * 1e3:.3g} ms) are needed{hint}"
+            f"{where}: too short: {have_ms} ms is {have} ball passes at "
+            f"{omega_rad_s:g} rad/s; at least {need} ({need_ms} ms) are needed{hint}"
         )
     # the median is below the floor only if at least half the samples are (a count is cheaper
     # than a median of a long block; the median itself is taken for the message)
