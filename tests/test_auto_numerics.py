@@ -19,7 +19,12 @@ import pytest
 from click.testing import CliRunner
 
 from signatelec.cli import cli
-from signatelec.config.catalogue import CATALOGUE, catalogue_bearing
+from signatelec.config.catalogue import (
+    CATALOGUE,
+    catalogue_bearing,
+    designation_of,
+    limiting_speed_rad_s,
+)
 from signatelec.config.scene import AUTO, Scene, SceneError
 from signatelec.engines.fidelity import apply_fidelity
 from signatelec.engines.results import DivergenceError, record_rate_hz
@@ -40,7 +45,6 @@ from signatelec.physics.stability import (
     stability_limit,
     traction_spin_up_time_s,
 )
-from signatelec.studies.operating_map import limiting_speed_rad_s
 
 
 def test_the_seed_scene_keeps_the_papers_numerics():
@@ -354,3 +358,29 @@ def test_a_trace_just_short_of_the_passes_needed_is_not_told_it_has_them():
     have_ms, have, need, need_ms = map(float, found.groups())
     assert have < need == MIN_BALL_PASSES and have_ms < need_ms
     assert have == pytest.approx(n / rate_hz * passes_hz, rel=1e-3)
+
+
+def test_a_speed_above_the_catalogues_limiting_speed_is_warned_with_its_likely_unit(tmp_path):
+    """The 6208's limiting speed is 11 000 rpm = 1151.9 rad/s [SKF]. 4775 typed for its rpm
+    (4775 rpm = 500.0 rad/s) runs at 4.15 x that as rad/s: one warning line, before the run,
+    naming the value, the limit and the unit that would bring it within. At 1100 rad/s, within
+    the limit, nothing is said, nor at 1152 rad/s, the limit as written rounded. (The
+    quasi-static tier keeps the runs cheap.)"""
+    limit = 11000.0 * 2.0 * math.pi / 60.0
+    assert limiting_speed_rad_s(designation_of(catalogue_bearing("6208"))) == pytest.approx(limit)
+    assert limiting_speed_rad_s(designation_of(Scene().bearing)) == pytest.approx(limit)  # seed's
+    for omega, warned in (("4775", True), ("1100", False), ("1152", False)):
+        res = CliRunner().invoke(
+            cli,
+            ["simulate", "--bearing", "6208", "--omega", omega, "--fidelity", "quasistatic"]
+            + ["--quiet", "--out", str(tmp_path / omega)],
+        )
+        assert res.exit_code == 0, res.output
+        lines = [line for line in res.output.splitlines() if "warning" in line]
+        if not warned:
+            assert not lines, res.output
+            continue
+        assert len(lines) == 1, res.output
+        said = "--omega = 4775 rad/s is 4.15 x the SKF 6208's limiting speed, 1152 rad/s"
+        assert said in lines[0]
+        assert "rpm (4775 rpm = 500 rad/s)" in lines[0] and "Hz" not in lines[0]

@@ -112,6 +112,7 @@ def simulate(
     except SceneError as exc:
         raise InputError(f"{scene_source(scene_file, overrides)}: {exc}") from None
     claim_output(out, "simulate", previous=is_simulate_output)
+    _warn_speed(scene, "--omega" if omega_rad_s is not None else "operating.omega_rad_s")
     results = []
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -128,6 +129,38 @@ def simulate(
     result = results[0]
     if not quiet:
         click.echo(summary(result, out))
+
+
+#: A speed up to this factor above the limiting speed is that speed, rounded (1152 rad/s for the
+#: 6208's 11 000 rpm, 1151.9 rad/s).
+LIMITING_SPEED_TOLERANCE = 1.005
+
+
+def _warn_speed(scene, key: str) -> None:
+    """One line, before the run, when the speed is above the bearing's catalogue limiting
+    speed (a run there is allowed: the scene's own limit is the balls' centrifugal overlap),
+    asking whether it was given in a unit that would bring it within."""
+    from signatelec.config.catalogue import designation_of, limiting_speed_rad_s
+    from signatelec.measurement.band import SPEED_UNITS
+
+    designation = designation_of(scene.bearing)
+    if designation is None:
+        return
+    omega, limit = scene.operating.omega_rad_s, limiting_speed_rad_s(designation)
+    if omega <= limit * LIMITING_SPEED_TOLERANCE:
+        return
+    units = [
+        f"{unit} ({omega:g} {unit} = {omega * rad_s:.4g} rad/s)"
+        for unit, rad_s in SPEED_UNITS.items()
+        if omega * rad_s <= limit
+    ]
+    question = f"; was it a speed in {' or '.join(units)}?" if units else ""
+    click.echo(
+        f"signatelec: warning: {key} = {omega:g} rad/s is {omega / limit:.3g} x the "
+        f"{scene.bearing.name.split(' (')[0]}'s limiting speed, {limit:.4g} rad/s "
+        f"({limit * 60.0 / (2.0 * math.pi):.5g} rpm, catalogue){question}",
+        err=True,
+    )
 
 
 def _warn_record_rate(scene) -> None:

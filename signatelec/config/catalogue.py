@@ -340,6 +340,18 @@ def rated_entry(designation: str) -> CatalogueEntry:
     return catalogue_entry(SEED_REAL_BEARING if key == "seed" else key)
 
 
+def limiting_speed_rad_s(designation: str) -> float:
+    """The limiting speed ``designation`` runs at (:func:`rated_entry`: the seed's 2D model at
+    the 6208's), rad/s."""
+    return rated_entry(designation).limiting_speed_rpm * 2.0 * math.pi / 60.0
+
+
+def designation_of(bearing: Bearing) -> str | None:
+    """The designation of the catalogue entry ``bearing`` was made from (found by its name),
+    None for a bearing the catalogue does not hold."""
+    return next((e.designation for e in _ENTRIES if e.name == bearing.name), None)
+
+
 def _derived_fields(entry: CatalogueEntry, n_balls: int, ball_radius_m: float, r_in_m: float):
     """The fields that follow from the ball set and the inner raceway radius."""
     diameter_m = 2.0 * ball_radius_m

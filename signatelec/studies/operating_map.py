@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -54,6 +53,7 @@ from signatelec._version import __version__
 from signatelec.config.bearing import INNER, OUTER
 from signatelec.config.catalogue import (
     catalogue_bearing,
+    limiting_speed_rad_s,
     list_bearings,
     minimum_load_n,
     rated_entry,
@@ -102,11 +102,6 @@ def normal_clearance_m(designation: str) -> float:
         if low < bore_mm <= high:
             return 0.5 * (cmin + cmax) * 1e-6
     raise ValueError(f"bore {bore_mm:g} mm: outside the ISO 5753-1 rows of this study")
-
-
-def limiting_speed_rad_s(designation: str) -> float:
-    rpm = rated_entry(designation).limiting_speed_rpm
-    return rpm * 2.0 * math.pi / 60.0
 
 
 def speeds_rad_s(designation: str, n: int = N_SPEEDS) -> np.ndarray:
