@@ -37,16 +37,34 @@ the nominal 0.2 % of the two searches.
    (``"elsewhere"``);
 4. anywhere else, with an amplitude of at least :data:`ELSEWHERE_MIN_REL` of the level:
    ``"elsewhere"``, a wrong ``--omega`` (the line is read as the fundamental, which it is on
-   nearly all traces), refused naming both frequencies and the speed the line implies;
+   nearly all traces), refused naming both frequencies and the speed the line implies.
+   Unless the ripple stands out where the speed puts it (the search of rule 5 finds it within
+   the tolerance) and the line is not the ripple of another speed: then ``"found"`` there,
+   the line kept as ``beside``. Such a line is the k-th harmonic (k = 2..K) of a stronger line
+   below it (:func:`_overtone`: a ripple has nothing below its fundamental); where its own
+   k-th harmonic falls on the ripple found (:func:`_harmonic_at`: as a ``--omega`` k times the
+   speed puts the ripple's k-th harmonic there), that stronger line must be the cage
+   frequency FTF (:func:`_at_cage`: the ball set's rotation, whose Z-th harmonic is f_bp); and
+   it is no defect's own line (BPFI's or 2 BSF's family, :func:`defect_line_of`; the cage's
+   and the shaft's harmonics, :data:`HEALTHY_LINES`, are a healthy bearing's too). With a
+   clearance the few loaded balls let the ball set's speed oscillate, at 0.11-0.16 f_bp (a
+   6208 at epsilon 0.34, 670 rad/s: the DEM's cage speed wanders over 47-60 Hz, f_bp 378 Hz),
+   or its rotation show at FTF = f_bp / Z; the resistance carries that line, below the wide
+   band, and its harmonics, the second or third of which (0.22-0.34 f_bp) outgrows the ripple:
+   8 of the 40 clearance traces of a 6208 dataset (epsilon 0.33-0.38) had been refused as a
+   speed about 3.3 times lower. The one case left ambiguous: a bearing whose Z has a divisor
+   k <= K (the 6208's 9 balls, k = 3) given a ``--omega`` k times the speed, where a line
+   near FTF at the speed given outgrows the ripple (1 of its 120 traces at 3x the speed);
 5. otherwise the search near f_bp: ``"found"``, or ``"elsewhere"`` outside the tolerance, or
    ``"none"`` (the model's domain decides: :mod:`signatelec.estimation.estimate`);
-6. a trace answering ``"elsewhere"`` or ``"none"`` is searched again at the speed read in the
+6. a trace answering ``"elsewhere"`` or ``"none"``, or found beside a stronger line (rule 4),
+   is searched again at the speed read in the
    units a speed is most often given in by mistake (:data:`SPEED_UNITS`: a frequency in Hz,
    2 pi times smaller; rpm, 60 / (2 pi) times larger), which lie beyond the wide band (a
    speed in rpm puts the line at 0.105 f_bp, and its third harmonic inside the band, read as
    a line elsewhere at three times the speed): a ripple ``"found"`` there below
-   :data:`UNIT_FALSE_ALARM`, and not at a mains hum's or the shaft's harmonic
-   (:func:`_interference`), is ``"elsewhere"``, naming the unit (``unit``).
+   :data:`UNIT_FALSE_ALARM` with no stronger line beside it, and not at a mains hum's or the
+   shaft's harmonic (:func:`_interference`), is ``"elsewhere"``, naming the unit (``unit``).
 
 **Tolerance** on found / expected - 1: the cage slip the model knows, :data:`SLIP_RANGE` (DEM
 training runs), widened by :data:`OMEGA_TOLERANCE` (a tachometer's error on ``--omega``) and by
@@ -61,14 +79,14 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import fft as sfft
 from scipy import stats
 
 from signatelec.measurement.band import MIN_BALL_PASSES, N_HARMONICS, SEARCH_REL, SPEED_UNITS
-from signatelec.physics.kinematics import expected_ball_pass_hz
+from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
 #: Zero padding of the periodogram (frequency grid 1 / (PAD T)).
 PAD = 4
@@ -100,7 +118,8 @@ SIGMA_FACTOR = 1.5
 HARMONIC_ONLY_MAX_REL = 6e-4
 #: Smallest line away from the ball-pass harmonics read as a ball-pass ripple (a wrong
 #: --omega), relative to the level: the DEM's other content stays below 0.013 % (the strongest
-#: line away from k f_bp +- 3 / T in 300 held-out runs of 0.2 s, at 0.27-0.30 f_bp).
+#: line away from k f_bp +- 3 / T in 300 held-out runs of 0.2 s, at 0.27-0.30 f_bp); beyond
+#: it, a clearance's ball-set oscillation (module rule 4, its exception).
 ELSEWHERE_MIN_REL = 3e-4
 #: False-alarm probability below which a ripple at the speed read in another unit names that
 #: unit: stricter than FALSE_ALARM, as it refuses a trace the speed given finds no line in (a
@@ -117,6 +136,49 @@ INTERFERENCE_HARMONICS = 8
 #: frequency wanders by ~0.1 %), widened by :data:`FREQUENCY_SIGMAS` standard errors of the
 #: line's frequency (the tolerance's rule).
 INTERFERENCE_REL = 0.005
+
+
+#: Half-width of the match of a line to a defect's line, relative (the DEM's cage slips by
+#: -0.3 to +0.1 %, a ball's spin more), widened by two frequency bins 2 / T of the trace.
+DEFECT_LINE_REL = 0.01
+#: The lines of :func:`defect_lines_hz` that a healthy bearing shows too: the shaft's harmonics
+#: (a runout, an unbalance) and the cage's (with a clearance a few balls carry the load, and
+#: the ball set's rotation modulates it: the 6208 at epsilon 0.33-0.38 shows FTF, 2 FTF and
+#: 3 FTF above its ball-pass line). A line there beside the ripple is no defect's own.
+HEALTHY_LINES = frozenset({f"{k} f_s" for k in range(1, 9)} | {f"{k} FTF" for k in range(1, 5)})
+
+
+def defect_lines_hz(omega_rad_s: float, bearing=None) -> dict[str, tuple[str, float]]:
+    """The lines a defect or an unbalance puts in the resistance spectrum, by name: (the
+    condition, Hz): the shaft harmonics (unbalance), BPFI's harmonics and its shaft sidebands
+    (inner race), 2 BSF's harmonics, its cage sidebands and the cage harmonics (ball);
+    Randall and Antoni (2011, eqs 1-4). ``bearing``: its geometry (default: the seed's)."""
+    f = characteristic_frequencies_hz(omega_rad_s, bearing)
+    lines: dict[str, tuple[str, float]] = {}
+    for k in range(1, 9):
+        lines[f"{k} f_s"] = ("unbalance", k * f["shaft"])
+    for k in range(1, 5):
+        lines[f"{k} BPFI"] = ("inner", k * f["bpfi"])
+        lines[f"{k} x 2 BSF"] = ("ball", k * f["ball_defect"])
+        lines[f"{k} FTF"] = ("ball", k * f["ftf"])
+    for j in (-2, -1, 1, 2):
+        lines[f"BPFI {j:+d} f_s"] = ("inner", f["bpfi"] + j * f["shaft"])
+    for j in (-3, -2, -1, 1, 2, 3):
+        lines[f"2 BSF {j:+d} FTF"] = ("ball", f["ball_defect"] + j * f["ftf"])
+    return lines
+
+
+def defect_line_of(
+    frequency_hz: float, omega_rad_s: float, duration_s: float, bearing=None
+) -> tuple[str, str] | None:
+    """(condition, line name) of the defect line nearest ``frequency_hz`` within
+    :data:`DEFECT_LINE_REL` (+ 2 / T), or None."""
+    best = None
+    for name, (condition, f) in defect_lines_hz(omega_rad_s, bearing).items():
+        off = abs(frequency_hz - f)
+        if off <= DEFECT_LINE_REL * f + 2.0 / duration_s and (best is None or off < best[0]):
+            best = (off, condition, name)
+    return None if best is None else (best[1], best[2])
 
 
 @functools.lru_cache(maxsize=4)
@@ -194,7 +256,9 @@ class Ripple:
     ``"elsewhere"`` (a line away from f_bp: wrong --omega), ``"none"`` or ``"constant"``.
     ``frequency_hz``: the line's frequency (found, harmonic, elsewhere), ``false_alarm`` its
     false-alarm probability, ``statistic`` its normalised power (a comb: the sum over
-    harmonics), ``tolerance`` the accepted range of found / expected - 1.
+    harmonics), ``tolerance`` the accepted range of found / expected - 1. ``beside``: a
+    stronger line away from f_bp that is not the ripple of another speed (module rule 4, its
+    exception), as the ``"elsewhere"`` it would have been.
     """
 
     status: str
@@ -207,6 +271,7 @@ class Ripple:
     tolerance: tuple[float, float] = (math.nan, math.nan)
     how: str = "line"
     unit: str | None = None
+    beside: Ripple | None = None
 
     @property
     def implied_omega_rad_s(self) -> float:
@@ -257,7 +322,7 @@ def find_ripple(
     speed is given as its first's was, skip it: two more searches, ~4 ms on 0.5 s at
     50 kHz)."""
     ripple = _search(resistance_ohm, sample_rate_hz, omega_rad_s, n_harmonics, bearing)
-    if not units or ripple.status not in ("elsewhere", "none"):
+    if not units or (ripple.status not in ("elsewhere", "none") and ripple.beside is None):
         return ripple
     for unit in SPEED_UNITS:
         there = ripple_in_unit(resistance_ohm, sample_rate_hz, omega_rad_s, unit, bearing=bearing)
@@ -284,7 +349,9 @@ def ripple_in_unit(
     bearing=None,
 ) -> Ripple | None:
     """The ripple at the speed ``omega_rad_s`` read in ``unit`` (:data:`SPEED_UNITS`) when
-    found there below :data:`UNIT_FALSE_ALARM` and at no interference's line
+    found there below :data:`UNIT_FALSE_ALARM`, with no stronger line beside it (rule 4's
+    exception is the speed given's: a spall's line read there at another speed is its own
+    business), and at no interference's line
     (:func:`_interference`), else None (also when the trace spans fewer than
     :data:`MIN_BALL_PASSES` ball passes at that speed). Module rule 6."""
     r = np.asarray(resistance_ohm, dtype=float)
@@ -295,6 +362,7 @@ def ripple_in_unit(
     there = _search(r, sample_rate_hz, omega, n_harmonics, bearing)
     if (
         there.status == "found"
+        and there.beside is None  # (no stronger line elsewhere: rule 4's exception is not read)
         and there.false_alarm < UNIT_FALSE_ALARM
         and not _interference(there, omega_rad_s, duration)
     ):
@@ -312,6 +380,54 @@ def _interference(line: Ripple, omega_rad_s: float, duration_s: float) -> bool:
         if abs(f_hz - k * base) <= INTERFERENCE_REL * k * base + FREQUENCY_SIGMAS * sigma:
             return True
     return False
+
+
+def _defect_own(frequency_hz: float, omega_rad_s: float, duration_s: float, bearing) -> bool:
+    """Whether a line lies on a defect's own line (:func:`defect_line_of`, not one of
+    :data:`HEALTHY_LINES`): BPFI's family or 2 BSF's, which only a spall puts in the trace."""
+    line = defect_line_of(frequency_hz, omega_rad_s, duration_s, bearing)
+    return line is not None and line[1] not in HEALTHY_LINES
+
+
+def _overtone(
+    z: np.ndarray, df: float, f_hz: float, statistic: float, duration_s: float, n_harmonics: int
+) -> float | None:
+    """The frequency of a stronger line of which the line at ``f_hz`` (normalised power
+    ``statistic``) is the k-th harmonic (k = 2..``n_harmonics``), or None: a spectral peak
+    of larger normalised power ``z`` (on a grid of ``df`` Hz) within one Fourier cell 1 / T of
+    f / k, widened by :data:`FREQUENCY_SIGMAS` standard errors of the line's frequency / k. A
+    ball-pass ripple has nothing below its fundamental (module rule 4)."""
+    sigma = _sigma_hz(statistic, duration_s)
+    for k in range(2, n_harmonics + 1):
+        width = 1.0 / duration_s + FREQUENCY_SIGMAS * sigma / k
+        lo = max(int(math.floor((f_hz / k - width) / df)), 1)
+        hi = min(int(math.ceil((f_hz / k + width) / df)), z.size - 2)
+        if hi < lo:
+            continue
+        i = lo + int(np.argmax(z[lo : hi + 1]))
+        if z[i] > statistic and z[i] >= z[i - 1] and z[i] >= z[i + 1]:
+            return i * df
+    return None
+
+
+def _harmonic_at(
+    f_hz: float, statistic: float, found_hz: float, duration_s: float, n_harmonics: int
+) -> bool:
+    """Whether a harmonic k = 2..``n_harmonics`` of the line at ``f_hz`` falls on the ripple
+    found at ``found_hz``: within :data:`SEARCH_REL` of it, widened by k
+    :data:`FREQUENCY_SIGMAS` standard errors of the line's frequency. A --omega k times the
+    speed puts the ripple's own k-th harmonic there (module rule 4)."""
+    k = round(found_hz / f_hz)
+    width = SEARCH_REL * found_hz + k * FREQUENCY_SIGMAS * _sigma_hz(statistic, duration_s)
+    return 2 <= k <= n_harmonics and abs(k * f_hz - found_hz) <= width
+
+
+def _at_cage(f_hz: float, omega_rad_s: float, duration_s: float, bearing) -> bool:
+    """Whether ``f_hz`` is the cage frequency FTF at ``omega_rad_s`` (within :data:`SEARCH_REL`
+    and one Fourier cell 1 / T): the ball set's rotation, whose harmonics j FTF include the
+    ball-pass frequency Z FTF."""
+    f_cage = characteristic_frequencies_hz(omega_rad_s, bearing)["ftf"]
+    return abs(f_hz - f_cage) <= SEARCH_REL * f_cage + 1.0 / duration_s
 
 
 def _sigma_hz(statistic: float, duration_s: float) -> float:
@@ -363,6 +479,27 @@ def _search(
         lo, hi = tolerance(statistic, k)
         return lo <= f / (k * f_exp) - 1.0 <= hi, (lo, hi)
 
+    def comb() -> Ripple:
+        """Rule 5: the search near the expected frequency."""
+        if not ks:
+            return Ripple("none", **base)
+        band = 2.0 * SEARCH_REL * f_exp * duration
+        # the fundamental alone (most of the ripple, mostly) and the sum over the harmonics
+        # (where the fundamental vanishes), each with half the false-alarm budget
+        first = at(cand)
+        total = sum(at(k * cand) for k in ks)
+        tests = []
+        for stat, dof, trials in ((first, 1, band), (total, len(ks), band * ks[-1])):
+            i = int(np.argmax(stat))
+            p = float(stats.f.sf(stat[i] / dof, 2 * dof, 2 * m))
+            tests.append((2.0 * _false_alarm(p, trials), _vertex(cand, stat, i), float(stat[i])))
+        fa, f_comb, c = min(tests)
+        if fa >= FALSE_ALARM:
+            return Ripple("none", false_alarm=min(fa, 1.0), **base)
+        found = {"frequency_hz": f_comb, "false_alarm": fa, "statistic": c, "how": "comb"}
+        ok, tol = within(f_comb, c)
+        return Ripple("found" if ok else "elsewhere", tolerance=tol, **found, **base)
+
     # the strongest line of the wide band
     sel = np.flatnonzero((bins * df >= lo_hz) & (bins * df <= hi_hz))
     if sel.size:
@@ -391,23 +528,19 @@ def _search(
                     return Ripple("harmonic", harmonic=k, tolerance=tol, **line, **base)
                 break
             if amp >= ELSEWHERE_MIN_REL * level:
+                # rule 4's exception: the ripple stands out where the speed puts it, and the
+                # line is not its fundamental at a speed k times lower, nor a defect's own
+                near = comb()
+                under = _overtone(z, df, f_line, z_line, duration, n_harmonics)
+                if (
+                    near.status == "found"
+                    and under is not None
+                    and not _defect_own(f_line, omega_rad_s, duration, bearing)
+                    and (
+                        not _harmonic_at(f_line, z_line, near.frequency_hz, duration, n_harmonics)
+                        or _at_cage(under, omega_rad_s, duration, bearing)
+                    )
+                ):
+                    return replace(near, beside=Ripple("elsewhere", **line, **base))
                 return Ripple("elsewhere", **line, **base)
-    # no line: the comb near the expected frequency
-    if not ks:
-        return Ripple("none", **base)
-    band = 2.0 * SEARCH_REL * f_exp * duration
-    # the fundamental alone (most of the ripple, mostly) and the sum over the harmonics (where
-    # the fundamental vanishes), each with half the false-alarm budget
-    first = at(cand)
-    comb = sum(at(k * cand) for k in ks)
-    tests = []
-    for stat, dof, trials in ((first, 1, band), (comb, len(ks), band * ks[-1])):
-        i = int(np.argmax(stat))
-        p = float(stats.f.sf(stat[i] / dof, 2 * dof, 2 * m))
-        tests.append((2.0 * _false_alarm(p, trials), _vertex(cand, stat, i), float(stat[i])))
-    fa, f_comb, c = min(tests)
-    if fa >= FALSE_ALARM:
-        return Ripple("none", false_alarm=min(fa, 1.0), **base)
-    found = {"frequency_hz": f_comb, "false_alarm": fa, "statistic": c, "how": "comb"}
-    ok, tol = within(f_comb, c)
-    return Ripple("found" if ok else "elsewhere", tolerance=tol, **found, **base)
+    return comb()

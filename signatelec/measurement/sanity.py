@@ -26,10 +26,13 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
    the column in mOhm?", the default model's range); within the margin it is a note;
 3. :func:`~signatelec.measurement.ripple.find_ripple`: the ball-pass line in the data, with its
    significance, near the frequency the speed predicts. A line elsewhere (a wrong ``--omega``)
-   and a constant trace are refused here; a trace without any line is passed on with the
-   finding, for the model's domain to judge (:mod:`signatelec.estimation.estimate`): a running
-   bearing whose load zone's edge sits on a zero of the ripple's first harmonic shows no line at
-   0.2 % noise over 50 ms in 17 % of held-out windows, so that alone cannot refuse a trace.
+   and a constant trace are refused here, but not a line that is no ripple of another speed
+   (a harmonic of a stronger line below it: a clearance's ball-set oscillation) beside a
+   ripple that stands out where the speed puts it (the ripple module's rule 4); a trace
+   without any line is passed on with the finding, for the model's domain to judge
+   (:mod:`signatelec.estimation.estimate`): a running bearing whose load zone's edge sits on
+   a zero of the ripple's first harmonic shows no line at 0.2 % noise over 50 ms in 17 % of
+   held-out windows, so that alone cannot refuse a trace.
    A spall on the inner race or a ball, or an unbalance, puts its own line in the trace
    (BPFI, 2 BSF and their sidebands, the shaft's harmonics), which may outgrow the ripple: when
    the caller has a condition model, a line on one of those is named, not refused, and the
@@ -43,9 +46,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from signatelec.measurement.band import MIN_BALL_PASSES
-from signatelec.measurement.ripple import Ripple, find_ripple
+from signatelec.measurement.ripple import Ripple, defect_line_of, find_ripple
 from signatelec.measurement.traces import Trace, TraceError
-from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
+from signatelec.physics.kinematics import expected_ball_pass_hz
 
 #: A block mean this many block-noise sigmas off the steady level departs from it...
 STEP_SIGMAS = 10.0
@@ -59,9 +62,6 @@ UNIT_FACTORS = {1e3: "mOhm", 1e-3: "kOhm", 1e6: "uOhm", 1e-6: "MOhm"}
 _MAD_TO_SIGMA = 1.4826
 
 
-#: Half-width of the match of a line to a defect's line, relative (the DEM's cage slips by
-#: -0.3 to +0.1 %, a ball's spin more), widened by two frequency bins 2 / T of the trace.
-DEFECT_LINE_REL = 0.01
 #: Departures from the steady level in at least this many separate groups of ball passes,
 #: reaching the second half of the trace, recur as a defect's events do.
 RECURRENT_GROUPS = 2
@@ -79,39 +79,6 @@ class Screening:
     ripple: Ripple
     notes: tuple[str, ...] = ()
     defect_line: tuple[str, str] | None = None
-
-
-def defect_lines_hz(omega_rad_s: float, bearing=None) -> dict[str, tuple[str, float]]:
-    """The lines a defect or an unbalance puts in the resistance spectrum, by name: (the
-    condition, Hz): the shaft harmonics (unbalance), BPFI's harmonics and its shaft sidebands
-    (inner race), 2 BSF's harmonics, its cage sidebands and the cage harmonics (ball);
-    Randall and Antoni (2011, eqs 1-4). ``bearing``: its geometry (default: the seed's)."""
-    f = characteristic_frequencies_hz(omega_rad_s, bearing)
-    lines: dict[str, tuple[str, float]] = {}
-    for k in range(1, 9):
-        lines[f"{k} f_s"] = ("unbalance", k * f["shaft"])
-    for k in range(1, 5):
-        lines[f"{k} BPFI"] = ("inner", k * f["bpfi"])
-        lines[f"{k} x 2 BSF"] = ("ball", k * f["ball_defect"])
-        lines[f"{k} FTF"] = ("ball", k * f["ftf"])
-    for j in (-2, -1, 1, 2):
-        lines[f"BPFI {j:+d} f_s"] = ("inner", f["bpfi"] + j * f["shaft"])
-    for j in (-3, -2, -1, 1, 2, 3):
-        lines[f"2 BSF {j:+d} FTF"] = ("ball", f["ball_defect"] + j * f["ftf"])
-    return lines
-
-
-def defect_line_of(
-    frequency_hz: float, omega_rad_s: float, duration_s: float, bearing=None
-) -> tuple[str, str] | None:
-    """(condition, line name) of the defect line nearest ``frequency_hz`` within
-    :data:`DEFECT_LINE_REL` (+ 2 / T), or None."""
-    best = None
-    for name, (condition, f) in defect_lines_hz(omega_rad_s, bearing).items():
-        off = abs(frequency_hz - f)
-        if off <= DEFECT_LINE_REL * f + 2.0 / duration_s and (best is None or off < best[0]):
-            best = (off, condition, name)
-    return None if best is None else (best[1], best[2])
 
 
 def recurrent(off: np.ndarray, n_blocks: int) -> bool:
@@ -235,6 +202,13 @@ def screen_trace(
             return Screening(trace=trace, ripple=ripple, notes=tuple(notes), defect_line=line)
     if ripple.status in ("elsewhere", "constant"):
         raise TraceError(f"{trace.source}: {ripple.problem()}")
+    if ripple.beside is not None:
+        f_hz = ripple.beside.frequency_hz
+        notes.append(
+            f"a stronger line at {f_hz:.1f} Hz ({f_hz / ripple.expected_hz:.3f} f_bp), a harmonic "
+            "of a stronger one below it (with a clearance, the ball set's oscillation), is not "
+            "the ball-pass ripple: read past"
+        )
     if ripple.status == "harmonic":
         k = ripple.harmonic
         notes.append(
