@@ -387,7 +387,7 @@ def _clearance_6208_trace(omega_rad_s: float) -> np.ndarray:
     return meter.measure(clean, MeasurementDraw(0.002, 0.0, 0.0), np.random.default_rng(5))
 
 
-@pytest.mark.parametrize("omega", [370.0, 520.0, 670.0])
+@pytest.mark.parametrize("omega", [370.0, 520.0, 600.0])
 def test_clearance_ball_set_line_is_no_wrong_speed(omega):
     """With a large clearance the 6208's few loaded balls let the ball set's speed oscillate,
     at 0.11-0.16 f_bp, below the wide band; its harmonic inside the band (0.22-0.34 f_bp)
@@ -424,6 +424,30 @@ def test_clearance_ball_set_line_is_no_wrong_speed(omega):
 
 
 # --- the in-domain score ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_harmonics_whose_orders_share_no_divisor_give_the_period(seed):
+    """A trace whose ripple shows its 3rd and 4th harmonics of f_bp above a fundamental lost in
+    the noise (an outer-race spall's impulses on a bearing whose BPFO is its ball-pass
+    frequency) has the period 1 / f_bp, gcd(3, 4) = 1: found at f_bp (its 4th harmonic, the
+    strongest line, had been read as a --omega a quarter of the speed). The trace of a
+    --omega a quarter of the speed, its ripple at 4 f_bp with its own harmonic at 8 f_bp,
+    keeps its refusal: nothing at f_bp or 3 f_bp."""
+    fs, omega, rng = 20000.0, 500.0, np.random.default_rng(seed)
+    t = np.arange(int(0.5 * fs)) / fs
+    f_bp = expected_ball_pass_hz(omega)
+    noise = 2e-3 * rng.standard_normal(t.size)
+    spall = 3e-3 * (1 + 1.5e-3 * np.cos(6 * np.pi * f_bp * t) + 2e-3 * np.cos(8 * np.pi * f_bp * t))
+    ripple = R.find_ripple(spall * (1 + noise), fs, omega)
+    assert ripple.status == "found"
+    assert ripple.frequency_hz == pytest.approx(f_bp, rel=R.SEARCH_REL)
+    quarter = 3e-3 * (
+        1 + 2e-3 * np.cos(8 * np.pi * f_bp * t) + 1e-3 * np.cos(16 * np.pi * f_bp * t)
+    )
+    wrong = R.find_ripple(quarter * (1 + noise), fs, omega)
+    assert wrong.status == "elsewhere"
+    assert wrong.frequency_hz == pytest.approx(4 * f_bp, rel=R.SEARCH_REL)
 
 
 def test_in_domain_score_calibrated():

@@ -30,9 +30,13 @@ the nominal 0.2 % of the two searches.
 1. ``"constant"``: the trace does not vary;
 2. the strongest line, when found, within the tolerance of f_bp: ``"found"``;
 3. at a harmonic k f_bp (k = 2..K) within the tolerance: ``"found"`` if the fundamental is
-   there too; else ``"harmonic"`` (where the load zone's edge sits on a zero of the first
-   harmonic the second carries the ripple), unless its amplitude exceeds
-   :data:`HARMONIC_ONLY_MAX_REL` of the level by three standard errors: no DEM run shows a
+   there too, or a harmonic j f_bp whose order shares no divisor with k (its period is then
+   1 / f_bp, which a ``--omega`` 1/k of the speed does not give: an outer-race spall of a
+   6208, whose BPFO is its ball-pass frequency, puts its impulses' 3rd and 4th harmonics
+   above a fundamental lost in their broadband floor); else ``"harmonic"`` (where the load
+   zone's edge sits on a zero of the first harmonic the second carries the ripple), unless
+   its amplitude exceeds :data:`HARMONIC_ONLY_MAX_REL` of the level by three standard
+   errors: no DEM run shows a
    harmonic that large without its fundamental, a ``--omega`` 1/k of the speed does
    (``"elsewhere"``);
 4. anywhere else, with an amplitude of at least :data:`ELSEWHERE_MIN_REL` of the level:
@@ -519,8 +523,13 @@ def _search(
                 ok, tol = within(f_line, z_line, k)
                 if not ok:
                     continue
-                if stats.f.sf(float(at(f_line / k)), 2, 2 * m) < FALSE_ALARM:
-                    # the fundamental is there too, weaker than this harmonic
+                if any(
+                    stats.f.sf(float(at(j * f_line / k)), 2, 2 * m) < FALSE_ALARM
+                    for j in range(1, k)
+                    if math.gcd(j, k) == 1
+                ):
+                    # the fundamental is there too, weaker than this harmonic, or a harmonic
+                    # whose order shares no divisor with k: the period is 1 / f_bp
                     return Ripple(
                         "found", tolerance=tol, **{**line, "frequency_hz": f_line / k}, **base
                     )
