@@ -338,7 +338,8 @@ def test_bearing_places_the_ripple(model_file, tmp_path, capsys):
     """--bearing 6205: a ripple at the 6205's ball-pass frequency Z/2 f_s (1 - d/D) (Harris
     and Kotzalas 2006, eq. 7.21 at contact angle 0) is found there, and the load state is left
     out (the model learnt the seed's bearing); the seed's geometry expects it elsewhere and
-    refuses the trace; an unknown designation is one line, exit 2."""
+    refuses the trace, naming the catalogue bearing whose line it is; an unknown designation
+    is one line, exit 2."""
     from signatelec.config.catalogue import catalogue_bearing
 
     b = catalogue_bearing("6205")
@@ -356,7 +357,7 @@ def test_bearing_places_the_ripple(model_file, tmp_path, capsys):
     assert abs(float(found.group(1)) - f_bp) < 1.0 / 0.2
     assert "radial load" not in text and "learnt the seed's bearing only" in text
     code, _, err = _estimate(capsys, path, 500.0, model_file)
-    _refused(code, err, "--omega 500")
+    _refused(code, err, "--omega 500", "is it another bearing?", "--bearing 6205")
     code, _, err = _estimate(capsys, EXAMPLE, 500.0, model_file, "--bearing", "6209x")
     _refused(code, err, "--bearing '6209x'", "unknown bearing", "6205")
 

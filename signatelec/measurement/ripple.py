@@ -260,7 +260,9 @@ class Ripple:
     ``"elsewhere"`` (a line away from f_bp: wrong --omega), ``"none"`` or ``"constant"``.
     ``frequency_hz``: the line's frequency (found, harmonic, elsewhere), ``false_alarm`` its
     false-alarm probability, ``statistic`` its normalised power (a comb: the sum over
-    harmonics), ``tolerance`` the accepted range of found / expected - 1. ``beside``: a
+    harmonics), ``tolerance`` the accepted range of found / expected - 1; ``bearings``: the
+    catalogue bearings whose ball-pass line it is at the speed given (``"elsewhere"``).
+    ``beside``: a
     stronger line away from f_bp that is not the ripple of another speed (module rule 4, its
     exception), as the ``"elsewhere"`` it would have been.
     """
@@ -276,6 +278,7 @@ class Ripple:
     how: str = "line"
     unit: str | None = None
     beside: Ripple | None = None
+    bearings: tuple[str, ...] = ()
 
     @property
     def implied_omega_rad_s(self) -> float:
@@ -294,10 +297,17 @@ class Ripple:
                     f"; was the speed given in {self.unit}? ({self.omega_rad_s:g} {self.unit} "
                     f"is {rad_s:.4g} rad/s)"
                 )
+            other = ""
+            if self.bearings and self.unit is None:
+                names = " or ".join(f"--bearing {b}" for b in self.bearings)
+                other = (
+                    f"; or is it another bearing? the line is the ball-pass frequency of "
+                    f"{names} at {om}"
+                )
             return (
                 f"ripple at {self.frequency_hz:.1f} Hz (false-alarm probability "
                 f"{self.false_alarm:.1g}), expected {self.expected_hz:.1f} Hz for {om}: the "
-                f"trace's speed is about {self.implied_omega_rad_s:.0f} rad/s{unit}"
+                f"trace's speed is about {self.implied_omega_rad_s:.0f} rad/s{unit}{other}"
             )
         if self.status == "constant":
             return (
@@ -326,6 +336,9 @@ def find_ripple(
     speed is given as its first's was, skip it: two more searches, ~4 ms on 0.5 s at
     50 kHz)."""
     ripple = _search(resistance_ohm, sample_rate_hz, omega_rad_s, n_harmonics, bearing)
+    if ripple.status == "elsewhere":
+        duration = np.asarray(resistance_ohm).size / sample_rate_hz
+        ripple = replace(ripple, bearings=_bearings_at(ripple, duration))
     if not units or (ripple.status not in ("elsewhere", "none") and ripple.beside is None):
         return ripple
     for unit in SPEED_UNITS:
@@ -342,6 +355,25 @@ def find_ripple(
                 unit=unit,
             )
     return ripple
+
+
+def _bearings_at(line: Ripple, duration_s: float) -> tuple[str, ...]:
+    """The catalogue bearings, other than the one the line was searched for, whose ball-pass
+    frequency at the speed given is the line's, within the tolerance of a line found there
+    (the cage slip, the tachometer and the line's frequency error): a trace of another bearing
+    read as the seed's (the 6208's line, 0.689 times the seed's at a speed, had been read as a
+    speed of 344 rad/s for 500)."""
+    from signatelec.config.catalogue import CATALOGUE, catalogue_bearing
+
+    out = []
+    for designation in CATALOGUE:
+        f_bp = expected_ball_pass_hz(line.omega_rad_s, catalogue_bearing(designation))
+        if abs(f_bp / line.expected_hz - 1.0) < 1e-9:
+            continue  # the bearing searched for
+        extra = OMEGA_TOLERANCE + FREQUENCY_SIGMAS * _sigma_hz(line.statistic, duration_s) / f_bp
+        if SLIP_RANGE[0] - extra <= line.frequency_hz / f_bp - 1.0 <= SLIP_RANGE[1] + extra:
+            out.append(designation)
+    return tuple(out)
 
 
 def ripple_in_unit(
