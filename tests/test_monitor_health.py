@@ -352,6 +352,40 @@ def test_a_stretch_condition_is_confident_as_estimate_calls_one():
     assert [line.endswith("uncertain") for line in lines] == [not c[-1] for c in cases]
 
 
+def test_assessments_unlike_the_condition_model_s_traces_are_told_in_their_stretch():
+    """Windows whose condition was not assessed because they are unlike every training trace
+    of the condition model (an in-domain score, no call: an outer spall of a 6208 read by the
+    seed's model from 24 s on) are counted in their stretch, with the first's time, warned of,
+    and a healthy call there is not confident (a fault call is); without such windows, no
+    key and no warning."""
+    from signatelec.estimation.health import refused_assessments
+    from signatelec.estimation.monitor_report import qualify
+
+    start = np.arange(0.0, 40.0, 2.0)
+    windows = pd.DataFrame(
+        {
+            "start_s": start,
+            "end_s": start + 0.2,
+            "condition": ["healthy" if t < 24.0 else None for t in start],
+            "condition_in_domain_score": [0.5 if t < 24.0 else 1e-9 for t in start],
+        }
+    )
+    assert refused_assessments(windows, 0.0, 24.0) == {}
+    assert refused_assessments(windows, 0.0, 40.2) == {
+        "condition_refused": 8,
+        "condition_refused_first_s": 24.0,
+    }
+    stretches = [
+        {"start_s": 0.0, "end_s": 40.2, "condition": c, "condition_probability": 0.95}
+        | {"condition_assessments": 12}
+        | refused_assessments(windows, 0.0, 40.2)
+        for c in ("healthy", "outer")
+    ]
+    notes = qualify(stretches)
+    assert [s["condition_confident"] for s in stretches] == [False, True]
+    assert len(notes) == 2 and "8 of its 20 assessments (the first at 24 s)" in notes[0]
+
+
 def test_a_stated_prior_moves_the_reported_probabilities_only(model_file, tile, tmp_path):
     """--healthy-prior P: each window's condition odds are the training mix's (a third each
     here) times the ratio of the priors (Bayes' rule), the faults sharing 1 - P in the training

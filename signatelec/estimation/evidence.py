@@ -61,6 +61,7 @@ from signatelec.estimation.health import (
     assessed_windows,
     condition_changes,
     faulty_windows,
+    refused_assessments,
     stretch_condition,
 )
 from signatelec.estimation.stretch import stretch_estimate
@@ -348,7 +349,7 @@ def stretches_and_changes(
             s = {k: v for k, v in s.items() if not k.startswith("condition")}
             j = np.searchsorted(cuts, 0.5 * (start_s + end_s))
             s |= stretch_condition(assessed if segment is None else assessed[segment == j])
-        return s
+        return s | refused_assessments(windows, start_s, end_s)
 
     stretches = []
     for i, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):

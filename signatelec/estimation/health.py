@@ -183,6 +183,23 @@ def stretch_condition(assessed: pd.DataFrame) -> dict:
     return out | {f"{PROBABILITY}{k}": v for k, v in mean.items()}
 
 
+def refused_assessments(windows: pd.DataFrame, start_s: float, end_s: float) -> dict:
+    """``condition_refused`` (how many) and ``condition_refused_first_s`` of the windows from
+    ``start_s`` to ``end_s`` whose condition was not assessed because they are unlike every
+    training trace of the condition model (an in-domain score, no call), or none: a fault or
+    a bearing the model did not learn, whose stretch a healthy call does not cover."""
+    if "condition_in_domain_score" not in windows or "condition" not in windows:
+        return {}
+    inside = (windows["start_s"] >= start_s - 1e-9) & (windows["end_s"] <= end_s + 1e-9)
+    refused = inside & windows["condition_in_domain_score"].notna() & windows["condition"].isna()
+    if not refused.any():
+        return {}
+    return {
+        "condition_refused": int(refused.sum()),
+        "condition_refused_first_s": float(windows.loc[refused, "start_s"].min()),
+    }
+
+
 def faulty_windows(windows: pd.DataFrame, start_s: float, end_s: float, model) -> pd.DataFrame:
     """The windows within ``start_s``-``end_s`` that hold ``model``'s features (every window the
     monitor measured, whatever the healthy load model made of it), answered by ``model`` (a

@@ -145,6 +145,8 @@ def qualify(
         if condition is not None and condition_model is not None:
             off = speed_warning(condition_model, s.get("condition_speeds_rad_s"), condition)
             s["condition_warnings"] = [f"condition: {off}"] if off else []
+        if s.get("condition_refused"):
+            s.setdefault("condition_warnings", []).append(_refused(s))
         if condition is not None:  # as estimate's: the call's probability, a healthy call's speed
             sure = (s.get("condition_probability") or 0.0) >= CONFIDENT_CONDITION
             s["condition_confident"] = bool(
@@ -161,6 +163,20 @@ def qualify(
             not warnings and (s.get("regime_probability") or 0.0) >= CONFIDENT_PROBABILITY
         )
     return notes
+
+
+def _refused(stretch: dict) -> str:
+    """The warning of a stretch some of whose condition assessments were refused as unlike
+    every training trace of the condition model (:func:`~signatelec.estimation.health.
+    refused_assessments`): the stretch holds what the model did not learn, so a healthy call
+    there is not confident."""
+    n, done = stretch["condition_refused"], stretch.get("condition_assessments", 0)
+    return (
+        f"condition: {n} of its {n + done} assessments (the first at "
+        f"{time_text(stretch['condition_refused_first_s'])} s) were unlike every training "
+        "trace of the condition model, a fault or a bearing it did not learn, and were not "
+        "assessed; a healthy call is not confident"
+    )
 
 
 def _joined(stretch: dict) -> list[str]:
