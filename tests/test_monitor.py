@@ -416,20 +416,23 @@ def test_a_run_up_at_a_constant_load_is_one_stretch(model_file, tmp_path, step):
 
 def test_a_change_with_the_speed_is_joined_only_below_every_alarm():
     """The rule that joins a change of the features that came with the speed, case by case: a
-    load change below the threshold is joined; beyond it (judged against the stretch joined so
-    far, 5050 -> 5320 N), kept; a regime change between two confident calls (0.8 and above),
-    kept, with one call uncertain, joined; a change at the same speed (within 0.1 %), or of
-    the condition, kept."""
+    load change below the threshold, the F_r intervals overlapping, is joined; beyond the
+    threshold against the stretch joined so far (5050 -> 5320 N, +4.3 % of the stretch before
+    it), kept; a regime change between two confident calls (0.8 and above), kept, with one
+    call uncertain, joined; a change at the same speed (within 0.1 %), or of the condition,
+    kept; a 4 % step whose intervals lie apart (a speed column wandering by a few tenths of a
+    percent on a constant-speed bench), kept."""
     from signatelec.estimation.evidence import _join_speed_changes
 
-    rows = [  # (speed, F_r, regime, its probability, condition changed at its start)
-        (500.0, 5000.0, "clearance", 0.95, False),
-        (520.0, 5100.0, "clearance", 0.90, False),  # joined
-        (545.0, 5320.0, "clearance", 0.90, False),  # kept: +4.3 % of 5100, +5.3 % of 5050
-        (570.0, 5310.0, "preload", 0.95, False),  # kept: two confident calls
-        (600.0, 5320.0, "clearance", 0.60, False),  # joined: an uncertain call
-        (585.3, 5330.0, "preload", 0.95, False),  # kept: the two joined at 585 rad/s
-        (640.0, 5340.0, "preload", 0.95, True),  # kept: the condition changed
+    rows = [  # (speed, F_r, interval half-width, regime, its probability, condition changed)
+        (500.0, 5000.0, 0.02, "clearance", 0.95, False),
+        (520.0, 5100.0, 0.02, "clearance", 0.90, False),  # joined
+        (545.0, 5320.0, 0.03, "clearance", 0.90, False),  # kept: +5.3 % of the joined 5050
+        (570.0, 5310.0, 0.03, "preload", 0.95, False),  # kept: two confident calls
+        (600.0, 5320.0, 0.03, "clearance", 0.60, False),  # joined: an uncertain call
+        (600.3, 5330.0, 0.03, "preload", 0.95, False),  # kept: the same speed
+        (640.0, 5340.0, 0.03, "preload", 0.95, True),  # kept: the condition changed
+        (660.0, 5560.0, 0.005, "preload", 0.95, False),  # kept: +4.1 %, intervals apart
     ]
     stretches = [
         {
@@ -437,14 +440,16 @@ def test_a_change_with_the_speed_is_joined_only_below_every_alarm():
             "end_s": 10.0 * (i + 1),
             "omega_rad_s": w,
             "radial_load_n": load,
+            "radial_load_n_low": load * (1 - half),
+            "radial_load_n_high": load * (1 + half),
             "radial_load_n_se_noise": 1e-3,
             "regime": regime,
             "regime_probability": p,
             f"regime_probability_{regime}": p,
         }
-        for i, (w, load, regime, p, _) in enumerate(rows)
+        for i, (w, load, half, regime, p, _) in enumerate(rows)
     ]
-    found = [(i, 10.0 * i, 1.0, row[4]) for i, row in enumerate(rows) if i]
+    found = [(i, 10.0 * i, 1.0, row[-1]) for i, row in enumerate(rows) if i]
 
     def answer(start_s, end_s):  # the stretches within: F_r and speed their mean
         inside = [s for s in stretches if start_s <= s["start_s"] and s["end_s"] <= end_s]
@@ -452,11 +457,11 @@ def test_a_change_with_the_speed_is_joined_only_below_every_alarm():
         return {**inside[0], "end_s": end_s, **mean}
 
     joined, kept = _join_speed_changes(stretches, found, answer, 0.05)
-    assert [c[1] for c in kept] == [20.0, 30.0, 50.0, 60.0]
+    assert [c[1] for c in kept] == [20.0, 30.0, 50.0, 60.0, 70.0]
     assert [(s["start_s"], s["end_s"]) for s in joined] == [
-        (0.0, 20.0), (20.0, 30.0), (30.0, 50.0), (50.0, 60.0), (60.0, 70.0)
+        (0.0, 20.0), (20.0, 30.0), (30.0, 50.0), (50.0, 60.0), (60.0, 70.0), (70.0, 80.0)
     ]  # fmt: skip
-    assert [s.get("joined_s") for s in joined] == [[10.0], None, [40.0], None, None]
+    assert [s.get("joined_s") for s in joined] == [[10.0], None, [40.0], None, None, None]
 
 
 @pytest.mark.parametrize("start", ["at rest", "run up from rest", "speed missing 0.5 s"])

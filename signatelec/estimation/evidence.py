@@ -452,30 +452,26 @@ def _answered_faulty(
 
 def _join_speed_changes(stretches: list, found: list, answer, load_threshold: float):
     """(stretches, changes found) with each change of the load state's features that came with
-    a change of speed (:func:`_speed_moved`) and raises no alarm (no load change beyond
-    ``load_threshold``, no change of regime between two confident calls; not a change of
-    condition, not a stretch the faulty model answered) joined into the stretch before it,
-    which ``answer(start_s, end_s)`` gives anew: features read at another speed move with it
-    (the level falls ~0.4 % from 400 to 600 rad/s at a constant load, the centrifugal force on
-    the balls; ~100 times a window's noise), so a run-up at a constant load had been cut every
+    a change of speed and is the speed's alone joined into the stretch before it, which
+    ``answer(start_s, end_s)`` gives anew: features read at another speed move with it (the
+    level falls ~0.4 % from 400 to 600 rad/s at a constant load, the centrifugal force on the
+    balls; ~100 times a window's noise), so a run-up at a constant load had been cut every
     ~2 s, and the stretches' regime calls, each on a few seconds, had flipped where the
-    signature cannot tell the regimes apart (epsilon 0.45-0.55). Each change is judged
-    against the stretch joined so far, so a load that drifts with the speed is cut where it
-    has moved past the threshold. A joined stretch lists the times joined (``joined_s``) and
-    its windows' speeds (``omega_range_rad_s``)."""
+    signature cannot tell the regimes apart (epsilon 0.45-0.55). The speed's alone
+    (:func:`_speed_only`), judged between the two stretches as found and between the stretch
+    joined so far and the next (a load that drifts with the speed is cut where it has moved
+    past the threshold); not a change of condition, nor of a stretch the faulty model
+    answered. A joined stretch lists the times joined (``joined_s``) and its windows' speeds
+    (``omega_range_rad_s``)."""
     out, kept = [stretches[0]] if stretches else [], []
-    for change, after in zip(found, stretches[1:], strict=True):
+    for change, previous, after in zip(found, stretches[:-1], stretches[1:], strict=True):
         before = out[-1]
         faulty = "faulty" in (before.get("load_model"), after.get("load_model"))
-        raised = alarms(before, after, change[1], change[2], load_threshold, condition=False)
-        sure = all(
-            s.get("regime_probability", 0.0) >= CONFIDENT_PROBABILITY for s in (before, after)
-        )
         if (
             change[3]
             or faulty
-            or _speed_moved(before, after) is None
-            or any(a["kind"] == "load" or sure for a in raised)
+            or not _speed_only(previous, after, change, load_threshold)
+            or not _speed_only(before, after, change, load_threshold, moved=False)
         ):
             out.append(after)
             kept.append(change)
@@ -484,6 +480,27 @@ def _join_speed_changes(stretches: list, found: list, answer, load_threshold: fl
         joined["joined_s"] = [*before.get("joined_s", []), change[1]]
         out[-1] = joined
     return out, kept
+
+
+def _speed_only(
+    before: dict, after: dict, change: tuple, load_threshold: float, moved: bool = True
+) -> bool:
+    """Whether a change between two stretches may be the speed's alone: their median speeds
+    apart (:func:`_speed_moved`, unless ``moved`` is False), their F_r intervals overlapping
+    (the load state the same within what the model tells: a speed column wandering by 0.3 %
+    on a constant-speed bench had joined a 3 % load step, its stretch covering neither load),
+    and no alarm between them (no load change beyond ``load_threshold``, no change of regime
+    between two confident calls)."""
+    if moved and _speed_moved(before, after) is None:
+        return False
+    keys = ("radial_load_n_low", "radial_load_n_high")
+    if not all(k in s for s in (before, after) for k in keys):
+        return False
+    if before[keys[0]] > after[keys[1]] or after[keys[0]] > before[keys[1]]:
+        return False
+    raised = alarms(before, after, change[1], change[2], load_threshold, condition=False)
+    sure = all(s.get("regime_probability", 0.0) >= CONFIDENT_PROBABILITY for s in (before, after))
+    return not any(a["kind"] == "load" or sure for a in raised)
 
 
 def _speed_moved(before: dict, after: dict) -> str | None:
