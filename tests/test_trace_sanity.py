@@ -451,6 +451,33 @@ def test_harmonics_whose_orders_share_no_divisor_give_the_period(seed):
     assert wrong.frequency_hz == pytest.approx(4 * f_bp, rel=R.SEARCH_REL)
 
 
+def test_a_nine_ball_bearing_given_a_third_of_its_speed_is_refused():
+    """A 6208 (Z = 9) at 670 rad/s read at a third of its speed: its ripple at f_bp lies at
+    3 f_exp, and its cage's 6th harmonic at 2 f_exp, an order that shares no divisor with 3
+    but is a cage harmonic at three times the speed (Z j / k = 6 whole): refused, the speed
+    named (the quasi-static tier, 0.2 % noise); at its speed, found at the kinematic f_bp."""
+    from dataclasses import replace
+
+    from signatelec.config.catalogue import catalogue_bearing
+    from signatelec.config.scene import Scene
+    from signatelec.engines.simulate import simulate
+
+    b, omega, fs = catalogue_bearing("6208"), 670.0, 20000.0
+    scene = replace(Scene(), bearing=b).with_overrides(
+        fidelity="quasistatic", radial_load_n=3000.0, omega_rad_s=omega, duration_s=0.51
+    )
+    sig = simulate(scene).signals
+    r = sig.loc[sig["phase"] == "steady", "resistance_ohm"].to_numpy()
+    r = r * (1 + 2e-3 * np.random.default_rng(1).standard_normal(r.size))
+    third = R.find_ripple(r, fs, omega / 3, bearing=b)
+    assert third.status == "elsewhere" and third.implied_omega_rad_s == pytest.approx(
+        omega, rel=0.01
+    )
+    right = R.find_ripple(r, fs, omega, bearing=b)
+    assert right.status == "found"
+    assert right.frequency_hz == pytest.approx(expected_ball_pass_hz(omega, b), rel=R.SEARCH_REL)
+
+
 def test_in_domain_score_calibrated():
     """On runs the domain never saw, the score is an empirical p-value: about 1 % of the
     shipped table's held-out rows fall below WARN_SCORE, none below REFUSE_SCORE."""

@@ -33,7 +33,9 @@ the nominal 0.2 % of the two searches.
    there too, or a harmonic j f_bp whose order shares no divisor with k (its period is then
    1 / f_bp, which a ``--omega`` 1/k of the speed does not give: an outer-race spall of a
    6208, whose BPFO is its ball-pass frequency, puts its impulses' 3rd and 4th harmonics
-   above a fundamental lost in their broadband floor); else ``"harmonic"`` (where the load
+   above a fundamental lost in their broadband floor), unless Z j / k is whole (then j f_bp
+   is the cage's (Z j / k)-th harmonic at k times the speed: a 9-ball bearing given a third
+   of its speed shows its cage's 6th harmonic at 2 f_bp); else ``"harmonic"`` (where the load
    zone's edge sits on a zero of the first harmonic the second carries the ripple), unless
    its amplitude exceeds :data:`HARMONIC_ONLY_MAX_REL` of the level by three standard
    errors: no DEM run shows a
@@ -89,6 +91,7 @@ import numpy as np
 from scipy import fft as sfft
 from scipy import stats
 
+from signatelec.config.bearing import seed_bearing
 from signatelec.measurement.band import MIN_BALL_PASSES, N_HARMONICS, SEARCH_REL, SPEED_UNITS
 from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
@@ -480,6 +483,7 @@ def _search(
     fs = float(sample_rate_hz)
     duration = r.size / fs
     f_exp = expected_ball_pass_hz(omega_rad_s, bearing)
+    n_balls = (bearing or seed_bearing()).n_balls
     base = {"omega_rad_s": float(omega_rad_s), "expected_hz": f_exp}
     x = _detrended(r)
     level = abs(float(r.mean())) if r.size else 0.0
@@ -558,10 +562,11 @@ def _search(
                 if any(
                     stats.f.sf(float(at(j * f_line / k)), 2, 2 * m) < FALSE_ALARM
                     for j in range(1, k)
-                    if math.gcd(j, k) == 1
+                    if j == 1 or (math.gcd(j, k) == 1 and n_balls * j % k)
                 ):
                     # the fundamental is there too, weaker than this harmonic, or a harmonic
-                    # whose order shares no divisor with k: the period is 1 / f_bp
+                    # whose order shares no divisor with k: the period is 1 / f_bp (unless
+                    # it is a cage harmonic at k times the speed: Z j / k whole)
                     return Ripple(
                         "found", tolerance=tol, **{**line, "frequency_hz": f_line / k}, **base
                     )
