@@ -748,6 +748,13 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
         p / "signals.parquet",
         "a simulation's signals carry no meter's noise, which every training trace has",
     )
+    # the same with a meter's noise, and none of the ripple: refused, no word of noise
+    noisy = pd.read_parquet(p / "signals.parquet")
+    noisy["resistance_ohm"] = noisy["resistance_ohm"].mean() * (
+        1 + 0.03 * np.random.default_rng(2).standard_normal(len(noisy))
+    )
+    noisy.to_parquet(tmp / "noisy_simulation.parquet")
+    cases["noisy_simulation"] = (tmp / "noisy_simulation.parquet", "no ball-pass ripple found")
     return cases
 
 
@@ -771,6 +778,7 @@ def _bad_traces(tmp: Path) -> dict[str, tuple[Path, str]]:
         "timestamps_for_resistance",
         "latin1_in_column",
         "clean_simulation",
+        "noisy_simulation",
     ],
 )
 def test_estimate_refuses(small_model, tmp_path, capsys, case):
@@ -783,6 +791,7 @@ def test_estimate_refuses(small_model, tmp_path, capsys, case):
     assert code == 2
     assert len(err) == 1 and err[0].startswith("signatelec: error: "), err
     assert expected in err[0]
+    assert ("meter's noise" in err[0]) is (case == "clean_simulation")
     assert not out.exists()
 
 

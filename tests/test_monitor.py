@@ -678,7 +678,7 @@ def test_a_model_other_than_the_default_is_read_with_its_windows_own_intervals(
         assert wide["radial_load_n_high"] - wide["radial_load_n_low"] < 0.8 * (
             s["radial_load_n_high"] - s["radial_load_n_low"]
         )
-    told = "the stretches' intervals are at least as wide as their windows' own"
+    told = "the stretches' intervals take the whole of their model part"
     assert any(n.startswith(told) for n in out["other"]["notes"])
     assert not any(n.startswith(told) for n in out["default"]["notes"])
 

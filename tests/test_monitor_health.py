@@ -350,6 +350,12 @@ def test_a_stretch_condition_is_confident_as_estimate_calls_one():
     }
     lines = format_summary(summary).splitlines()[-len(cases) :]
     assert [line.endswith("uncertain") for line in lines] == [not c[-1] for c in cases]
+    # under a stated prior the probability shown is the prior's, the confidence the mix's
+    summary["settings"] = {"healthy_prior": 0.9}
+    lines = format_summary(summary).splitlines()[-len(cases) :]
+    assert [line.endswith("uncertain on the training mix") for line in lines] == [
+        not c[-1] for c in cases
+    ]
 
 
 def test_assessments_unlike_the_condition_model_s_traces_are_told_in_their_stretch():

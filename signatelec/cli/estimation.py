@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gc
+import re
 from pathlib import Path
 
 import click
@@ -13,6 +14,17 @@ from signatelec.cli.common import (
     cli,
 )
 from signatelec.interrupts import signals_deferred
+
+#: What a simulation's output refused as unlike the training traces lacks, when its file
+#: tells it is one (a ``phase`` column) and its residual is unlike a meter's noise (the
+#: farthest features name noise_kurtosis or noise_colour above the training traces'): a clean
+#: DEM trace's residual is the ball set's own, spiky and coloured (kurtosis ~15, colour ~3,
+#: where a meter's white noise gives ~3 and ~1).
+SIMULATED = (
+    "; a simulation's signals carry no meter's noise, which every training trace has: "
+    "`signatelec generate` applies the measurement model (noise, drift, offset) to its traces"
+)
+NOISE_FREE = re.compile(r"noise_(kurtosis|colour) \S+ \(z \+")
 
 
 def trace_columns(command):
@@ -155,7 +167,9 @@ def estimate(
     try:
         result = run_estimate(trace, omega_rad_s, model, bearing=bearing)
     except (TraceError, DomainError) as exc:
-        simulated = isinstance(exc, DomainError) and phase is not None
+        simulated = (
+            isinstance(exc, DomainError) and phase is not None and NOISE_FREE.search(str(exc))
+        )
         raise InputError(str(exc) + (SIMULATED if simulated else "")) from None
     if healthy_prior is not None:
         result = under_prior(result, model.condition, healthy_prior)
@@ -424,15 +438,6 @@ def _report(out, windows, summary, interrupted: bool, quiet: bool) -> None:
     if not quiet:
         click.echo(format_summary(summary))
         click.echo(f"wrote {out}/windows.parquet, summary.json, monitor.png")
-
-
-#: What a simulation's output refused as unlike the training traces lacks (its ``phase``
-#: column tells it): a clean DEM trace's residual is the ball set's own, spiky and coloured
-#: (noise kurtosis ~15, colour ~3, where a meter's white noise gives ~3 and ~1).
-SIMULATED = (
-    "; a simulation's signals carry no meter's noise, which every training trace has: "
-    "`signatelec generate` applies the measurement model (noise, drift, offset) to its traces"
-)
 
 
 def _progress_printer(trace_file: str, live=None, every_s: float = 2.0):

@@ -279,9 +279,10 @@ def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=N
     )
     if stretches and any("radial_load_n" in x for x in stretches) and bias_ratios(model):
         notes.append(
-            "the stretches' intervals are at least as wide as their windows' own: the error "
-            "this model makes on a state, which its windows share, was not calibrated "
-            "(`signatelec study monitor` calibrates the default model's)"
+            "the stretches' intervals take the whole of their model part (ratio 1: as wide as "
+            "a window's own, where the windows answer): the error this model makes on a state, "
+            "which its windows share, was not calibrated (`signatelec study monitor` "
+            "calibrates the default model's)"
         )
     if table.time_origin_utc is not None:
         notes.append(
@@ -564,7 +565,11 @@ def format_summary(summary: dict) -> str:
         if "condition" in s:
             line += f"  condition {s['condition']} ({s['condition_probability']:.2f})"
             line += ", extrapolated" if s.get("condition_warnings") else ""
-            line += "" if s.get("condition_confident", True) else ", uncertain"
+            # (under a stated prior the probability shown is the prior's, the call's confidence
+            # the training mix's)
+            prior = summary["settings"].get("healthy_prior") is not None
+            unsure = ", uncertain" + (" on the training mix" if prior else "")
+            line += "" if s.get("condition_confident", True) else unsure
         lines.append(line)
     for a in summary["alarms"]:
         lines.append(

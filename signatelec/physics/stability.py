@@ -300,7 +300,9 @@ def record_grid_dt_s(dt_s: float, sample_rate_hz: float) -> float:
     records at another rate than asked (dt = 1.366e-6 s at 20 kHz: every 37 steps, 19782 Hz).
     On the grid, k steps per recorded instant, it records at the rate asked; the step shrinks by
     less than one part in k (the run costs that much more: under 3 % for the presets' ~1.4e-6 s
-    at 20 kHz, k = 37), by up to half when the period is less than two steps.
+    at 20 kHz, k = 37), by up to half when the period is less than two steps, and to the period
+    itself when it is shorter than the step (a rate above 1 / dt records every step: 2 MHz
+    makes the fast preset's 1.5e-6 s 5e-7 s, three times the steps).
     """
     period_s = 1.0 / sample_rate_hz
     # a step that divides the period but for round-off is kept (1e-7 s at 20 kHz: 500 steps)
