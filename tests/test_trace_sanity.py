@@ -478,6 +478,19 @@ def test_a_nine_ball_bearing_given_a_third_of_its_speed_is_refused():
     assert right.frequency_hz == pytest.approx(expected_ball_pass_hz(omega, b), rel=R.SEARCH_REL)
 
 
+def test_a_level_beyond_the_training_range_names_the_load_it_would_take():
+    """A level 10 times above the training traces' highest is, along R ~ F_r^(-4/3) (seed
+    section 3), a load 10^(3/4) = 5.6 times lighter than the lightest; 10 times below the
+    lowest, 5.6 times heavier than the heaviest: named beside the other readings."""
+    from signatelec.measurement.sanity import check_level
+
+    for level, side in ((77.2e-3, "lighter than the lightest"), (0.0886e-3, "heavier")):
+        with pytest.raises(TraceError) as info:
+            check_level(level, (0.886e-3, 7.72e-3), "trace 'x'")
+        assert f"a load ~5.6 times {side}" in str(info.value)
+        assert "not this bearing, or not a resistance in ohm" in str(info.value)
+
+
 def test_in_domain_score_calibrated():
     """On runs the domain never saw, the score is an empirical p-value: about 1 % of the
     shipped table's held-out rows fall below WARN_SCORE, none below REFUSE_SCORE."""

@@ -150,6 +150,17 @@ def _ohm(value: float, unit: str | None = None) -> str:
     return f"{value / scales[unit]:.3g} {unit}"
 
 
+def _load_beyond(level_ohm: float, range_ohm: tuple[float, float]) -> str:
+    """The load a level beyond the training traces' range ``range_ohm`` would take, against
+    theirs (R ~ F_r^(-4/3), seed section 3: a level x above the highest is a load x^(3/4)
+    lighter than the lightest)."""
+    lo, hi = range_ohm
+    above = level_ohm > hi
+    factor = (level_ohm / hi if above else lo / level_ohm) ** 0.75
+    side = "lighter than the lightest" if above else "heavier than the heaviest"
+    return f"a load ~{factor:.2g} times {side} the model learnt (R ~ F_r^(-4/3))"
+
+
 def check_level(level_ohm: float, range_ohm: tuple[float, float], where: str) -> str | None:
     """None when the level is inside the trained range, a note within :data:`LEVEL_MARGIN`
     of it; TraceError beyond, naming the unit mix-up when a factor of :data:`UNIT_FACTORS`
@@ -170,7 +181,7 @@ def check_level(level_ohm: float, range_ohm: tuple[float, float], where: str) ->
             )
     raise TraceError(
         f"{where}: level {_ohm(level_ohm)} is outside {trained} (beyond x{LEVEL_MARGIN:g}): "
-        "not this bearing, or not a resistance in ohm"
+        f"{_load_beyond(level_ohm, range_ohm)}, not this bearing, or not a resistance in ohm"
     )
 
 
