@@ -641,6 +641,16 @@ def test_alarms_are_told_on_the_way_when_following(model_file, tiles, tmp_path, 
     assert live(Table(100)) == [] and answered == [50, 100]  # nothing new: not read again
     (line,) = live(Table(200))
     assert line.startswith("alarm at 35 s (provisional): load") and answered == [50, 100, 200]
+    # a later reading that no longer shows an alarm told: told withdrawn, and told again if back
+    summary["alarms"] = summary["alarms"][:1]
+    live.next_s = 0.0
+    assert live(Table(250)) == [
+        "alarm at 35 s (load) withdrawn: the record read since no longer shows it"
+    ]
+    summary["alarms"] = [*summary["alarms"], {**summary["alarms"][0], "time_s": 35.0}]
+    live.next_s = 0.0
+    (line,) = live(Table(300))
+    assert line.startswith("alarm at 35 s (provisional): load")
 
 
 def test_a_model_other_than_the_default_is_read_with_its_windows_own_intervals(

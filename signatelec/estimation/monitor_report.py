@@ -230,8 +230,9 @@ class LiveAlarms:
     20 s of record at a 0.2 s hop), but in no more than a tenth of the wall time (it reads
     every window so far again). Each alarm is told once, marked provisional: the summary
     written at the end, from the whole record, is the answer (a change found near the end of
-    what was read may move, or go, as windows arrive). An alarm of the same kind within 1.5
-    hops (``hop_s``) of one told is that one."""
+    what was read may move, or go, as windows arrive: one told that a later reading no longer
+    shows is told withdrawn). An alarm of the same kind within 1.5 hops (``hop_s``) of one
+    told is that one."""
 
     def __init__(self, summarise, hop_s: float):
         self.summarise, self.hop_s = summarise, hop_s
@@ -248,10 +249,18 @@ class LiveAlarms:
         self.windows = table.n_windows
         alarms = self.summarise(table)["alarms"]
         self.next_s = start + 10.0 * (time.monotonic() - start)
+        now = [(a["kind"], a["time_s"]) for a in alarms]
         lines = []
+        for kind, t in list(self.told):  # told, and gone from the summary so far
+            if not self._among(kind, t, now):
+                self.told.remove((kind, t))
+                lines.append(
+                    f"alarm at {time_text(t)} s ({kind}) withdrawn: the record read since no "
+                    "longer shows it"
+                )
         for a in alarms:
             kind, t = a["kind"], a["time_s"]
-            if any(k == kind and abs(x - t) <= 1.5 * self.hop_s for k, x in self.told):
+            if self._among(kind, t, self.told):
                 continue
             self.told.append((kind, t))
             sure = "" if a.get("confident", True) else "; not confident"
@@ -260,6 +269,10 @@ class LiveAlarms:
                 f"{a['probability']:.3f}{sure})"
             )
         return lines
+
+    def _among(self, kind: str, time_s: float, alarms: list[tuple[str, float]]) -> bool:
+        """Whether an alarm of ``kind`` at ``time_s`` is one of ``alarms`` (within 1.5 hops)."""
+        return any(k == kind and abs(t - time_s) <= 1.5 * self.hop_s for k, t in alarms)
 
 
 def summary_of(table, settings, stretches, changes, alarms, extra: dict, model=None) -> dict:
