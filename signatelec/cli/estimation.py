@@ -380,10 +380,11 @@ def monitor(
         "healthy_prior": healthy_prior,
     }
 
-    def summarise(table) -> dict:
-        """The summary of the windows read so far (the output's, and the live alarms')."""
+    def summarise(table, windows=None) -> dict:
+        """The summary of the windows read so far (the output's, and the live alarms');
+        ``windows``: the table's frame, when at hand."""
         stretches, changes, alarms = stretches_and_changes(
-            table.frame(),
+            table.frame() if windows is None else windows,
             settings.hop,
             false_alarm_rate,
             load_threshold,
@@ -411,8 +412,8 @@ def monitor(
         raise InputError(str(exc)) from None
     finally:
         gc.unfreeze()
-    summary = summarise(table)
     windows = table.frame()
+    summary = summarise(table, windows)
     if healthy_prior is not None:
         windows = model.condition.move_to_prior(windows, healthy_prior)
     # the model's own features served the stretch model; the table keeps those it kept before

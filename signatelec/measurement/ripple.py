@@ -373,8 +373,8 @@ def _bearings_at(line: Ripple, duration_s: float) -> tuple[str, ...]:
         f_bp = expected_ball_pass_hz(line.omega_rad_s, catalogue_bearing(designation))
         if abs(f_bp / line.expected_hz - 1.0) < 1e-9:
             continue  # the bearing searched for
-        extra = OMEGA_TOLERANCE + FREQUENCY_SIGMAS * _sigma_hz(line.statistic, duration_s) / f_bp
-        if SLIP_RANGE[0] - extra <= line.frequency_hz / f_bp - 1.0 <= SLIP_RANGE[1] + extra:
+        lo, hi = _tolerance(line.statistic, duration_s, f_bp)
+        if lo <= line.frequency_hz / f_bp - 1.0 <= hi:
             out.append(designation)
     return tuple(out)
 
@@ -469,6 +469,13 @@ def _at_cage(f_hz: float, omega_rad_s: float, duration_s: float, bearing) -> boo
     return abs(f_hz - f_cage) <= SEARCH_REL * f_cage + 1.0 / duration_s
 
 
+def _tolerance(statistic: float, duration_s: float, f_hz: float) -> tuple[float, float]:
+    """The accepted range of found / expected - 1 of a line of normalised power ``statistic``
+    expected at ``f_hz`` (module docstring, Tolerance)."""
+    extra = OMEGA_TOLERANCE + FREQUENCY_SIGMAS * _sigma_hz(statistic, duration_s) / f_hz
+    return SLIP_RANGE[0] - extra, SLIP_RANGE[1] + extra
+
+
 def _sigma_hz(statistic: float, duration_s: float) -> float:
     """Standard error of a found line's frequency: :data:`SIGMA_FACTOR` times the Cramer-Rao
     bound sqrt(6 / z) / (2 pi T) (module docstring, Tolerance)."""
@@ -511,12 +518,8 @@ def _search(
     def at(freqs) -> np.ndarray:
         return np.interp(np.asarray(freqs) / df, bins, z)
 
-    def tolerance(statistic: float, k: int = 1) -> tuple[float, float]:
-        extra = OMEGA_TOLERANCE + FREQUENCY_SIGMAS * _sigma_hz(statistic, duration) / (k * f_exp)
-        return SLIP_RANGE[0] - extra, SLIP_RANGE[1] + extra
-
     def within(f: float, statistic: float, k: int = 1) -> tuple[bool, tuple[float, float]]:
-        lo, hi = tolerance(statistic, k)
+        lo, hi = _tolerance(statistic, duration, k * f_exp)
         return lo <= f / (k * f_exp) - 1.0 <= hi, (lo, hi)
 
     def comb() -> Ripple:
