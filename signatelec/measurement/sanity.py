@@ -8,7 +8,9 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
    in one line, or the trace is refused; never averaged in. The level is read per ball pass
    (block means over one kinematic period, where the ripple averages out); the steady level is
    the median of the last half's blocks; a block departs from it when it is off by more than
-   :data:`STEP_SIGMAS` times the block-to-block noise (robust, from first differences) and
+   :data:`STEP_SIGMAS` times the block-to-block noise (robust, from the first differences of
+   the last half's blocks: a settling that spans half a short trace's blocks had inflated
+   the noise read over all of them, and kept ball passes 1-2 % off) and
    more than :data:`DRIFT_ALLOWANCE` of the level (five times the largest drift of the training
    traces, a random walk of 0.1 % at the end of the window). The steady part starts after the
    last departing block and must span :data:`~signatelec.measurement.band.MIN_BALL_PASSES`
@@ -108,7 +110,7 @@ def trim_transient(
         return trace
     means = r[: n * n_block].reshape(n, n_block).mean(axis=1)
     level = float(np.median(means[n // 2 :]))
-    diffs = np.diff(means)
+    diffs = np.diff(means[n // 2 :])
     noise = _MAD_TO_SIGMA * float(np.median(np.abs(diffs - np.median(diffs)))) / np.sqrt(2.0)
     allowed = max(STEP_SIGMAS * noise, DRIFT_ALLOWANCE * abs(level))
     off = np.flatnonzero(np.abs(means - level) > allowed)
