@@ -54,7 +54,7 @@ from signatelec.estimation.condition import PROBABILITY, SEVERITY_TARGET
 from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
 from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.features import trace_features
-from signatelec.measurement.ripple import defect_line_of
+from signatelec.measurement.lines import defect_line_of
 
 #: Trace between two assessments of the condition, s (module docstring).
 CONDITION_EVERY_S = 60.0
@@ -101,7 +101,7 @@ def defect_explains(
     learnt=None,
 ):
     """Whether the strongest line of the first ``screened`` samples of a block's ``trace``,
-    away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.ripple.
+    away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.lines.
     defect_line_of`, of ``bearing``) that the condition ``model`` confidently calls on the
     block's first ``window_s`` (its training traces' length), as ``estimate`` keeps a trace
     whose strongest line a confident call of that very condition explains; its load features

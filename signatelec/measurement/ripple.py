@@ -54,8 +54,10 @@ the nominal 0.2 % of the two searches.
    k-th harmonic falls on the ripple found (:func:`_harmonic_at`: as a ``--omega`` k times the
    speed puts the ripple's k-th harmonic there), that stronger line must be the cage
    frequency FTF (:func:`_at_cage`: the ball set's rotation, whose Z-th harmonic is f_bp); and
-   it is no defect's own line (BPFI's or 2 BSF's family, :func:`defect_line_of`; the cage's
-   and the shaft's harmonics, :data:`HEALTHY_LINES`, are a healthy bearing's too). With a
+   it is no defect's own line (BPFI's or 2 BSF's family,
+   :func:`~signatelec.measurement.lines.defect_own`; the cage's
+   and the shaft's harmonics, :data:`~signatelec.measurement.lines.HEALTHY_LINES`, are a
+   healthy bearing's too). With a
    clearance the few loaded balls let the ball set's speed oscillate, at 0.11-0.16 f_bp (a
    6208 at epsilon 0.34, 670 rad/s: the DEM's cage speed wanders over 47-60 Hz, f_bp 378 Hz),
    or its rotation show at FTF = f_bp / Z; the resistance carries that line, below the wide
@@ -102,6 +104,7 @@ from scipy import stats
 
 from signatelec.config.bearing import seed_bearing
 from signatelec.measurement.band import MIN_BALL_PASSES, N_HARMONICS, SEARCH_REL, SPEED_UNITS
+from signatelec.measurement.lines import defect_own
 from signatelec.physics.kinematics import characteristic_frequencies_hz, expected_ball_pass_hz
 
 #: Zero padding of the periodogram (frequency grid 1 / (PAD T)).
@@ -152,49 +155,6 @@ INTERFERENCE_HARMONICS = 8
 #: frequency wanders by ~0.1 %), widened by :data:`FREQUENCY_SIGMAS` standard errors of the
 #: line's frequency (the tolerance's rule).
 INTERFERENCE_REL = 0.005
-
-
-#: Half-width of the match of a line to a defect's line, relative (the DEM's cage slips by
-#: -0.3 to +0.1 %, a ball's spin more), widened by two frequency bins 2 / T of the trace.
-DEFECT_LINE_REL = 0.01
-#: The lines of :func:`defect_lines_hz` that a healthy bearing shows too: the shaft's harmonics
-#: (a runout, an unbalance) and the cage's (with a clearance a few balls carry the load, and
-#: the ball set's rotation modulates it: the 6208 at epsilon 0.33-0.38 shows FTF, 2 FTF and
-#: 3 FTF above its ball-pass line). A line there beside the ripple is no defect's own.
-HEALTHY_LINES = frozenset({f"{k} f_s" for k in range(1, 9)} | {f"{k} FTF" for k in range(1, 5)})
-
-
-def defect_lines_hz(omega_rad_s: float, bearing=None) -> dict[str, tuple[str, float]]:
-    """The lines a defect or an unbalance puts in the resistance spectrum, by name: (the
-    condition, Hz): the shaft harmonics (unbalance), BPFI's harmonics and its shaft sidebands
-    (inner race), 2 BSF's harmonics, its cage sidebands and the cage harmonics (ball);
-    Randall and Antoni (2011, eqs 1-4). ``bearing``: its geometry (default: the seed's)."""
-    f = characteristic_frequencies_hz(omega_rad_s, bearing)
-    lines: dict[str, tuple[str, float]] = {}
-    for k in range(1, 9):
-        lines[f"{k} f_s"] = ("unbalance", k * f["shaft"])
-    for k in range(1, 5):
-        lines[f"{k} BPFI"] = ("inner", k * f["bpfi"])
-        lines[f"{k} x 2 BSF"] = ("ball", k * f["ball_defect"])
-        lines[f"{k} FTF"] = ("ball", k * f["ftf"])
-    for j in (-2, -1, 1, 2):
-        lines[f"BPFI {j:+d} f_s"] = ("inner", f["bpfi"] + j * f["shaft"])
-    for j in (-3, -2, -1, 1, 2, 3):
-        lines[f"2 BSF {j:+d} FTF"] = ("ball", f["ball_defect"] + j * f["ftf"])
-    return lines
-
-
-def defect_line_of(
-    frequency_hz: float, omega_rad_s: float, duration_s: float, bearing=None
-) -> tuple[str, str] | None:
-    """(condition, line name) of the defect line nearest ``frequency_hz`` within
-    :data:`DEFECT_LINE_REL` (+ 2 / T), or None."""
-    best = None
-    for name, (condition, f) in defect_lines_hz(omega_rad_s, bearing).items():
-        off = abs(frequency_hz - f)
-        if off <= DEFECT_LINE_REL * f + 2.0 / duration_s and (best is None or off < best[0]):
-            best = (off, condition, name)
-    return None if best is None else (best[1], best[2])
 
 
 @functools.lru_cache(maxsize=4)
@@ -430,13 +390,6 @@ def _interference(line: Ripple, omega_rad_s: float, duration_s: float) -> bool:
     return False
 
 
-def _defect_own(frequency_hz: float, omega_rad_s: float, duration_s: float, bearing) -> bool:
-    """Whether a line lies on a defect's own line (:func:`defect_line_of`, not one of
-    :data:`HEALTHY_LINES`): BPFI's family or 2 BSF's, which only a spall puts in the trace."""
-    line = defect_line_of(frequency_hz, omega_rad_s, duration_s, bearing)
-    return line is not None and line[1] not in HEALTHY_LINES
-
-
 def _peak_near(
     z: np.ndarray,
     df: float,
@@ -625,7 +578,7 @@ def _search(
                 if (
                     near.status == "found"
                     and under is not None
-                    and not _defect_own(f_line, omega_rad_s, duration, bearing)
+                    and not defect_own(f_line, omega_rad_s, duration, bearing)
                     and (
                         not _harmonic_at(f_line, z_line, near.frequency_hz, duration, n_harmonics)
                         or _at_cage(under, omega_rad_s, duration, bearing)

@@ -48,7 +48,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from signatelec.measurement.band import MIN_BALL_PASSES
-from signatelec.measurement.ripple import Ripple, defect_line_of, find_ripple
+from signatelec.measurement.lines import defect_line_of
+from signatelec.measurement.ripple import Ripple, find_ripple
 from signatelec.measurement.traces import Trace, TraceError
 from signatelec.physics.kinematics import expected_ball_pass_hz
 
