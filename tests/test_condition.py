@@ -585,3 +585,51 @@ def test_probabilities_moved_to_another_prior():
     assert model.move_to_prior(plain, 0.7) is plain
     with pytest.raises(ValueError, match="lacks the probability columns"):
         model.move_to_prior(frame.drop(columns=columns[0]), 0.7)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_spalls_line_at_no_harmonic_is_read_past_when_the_fault_is_called(seed):
+    """A 0.73 mm outer-race spall of the seed's bearing in the load zone (7780 N, a 10 um
+    clearance, 571 rad/s; the fast DEM, 0.2 s after 30 ms of settling, 0.2 % noise) puts a
+    line at 3.76 f_bp, at no harmonic of the ball-pass frequency, above the ripple (17 of 100
+    such traces over the condition model's training design had been refused as a speed ~2-4
+    times the true one). The ripple stands where the speed puts it all the same, and the
+    default condition model calls outer confidently: the trace is read, the line read past
+    with a note. Given 0.8 times its speed, the trace stays refused (the ripple is not where
+    that speed puts it)."""
+    import warnings
+
+    from signatelec.engines.fidelity import apply_fidelity
+    from signatelec.estimation.estimate import estimate
+    from signatelec.estimation.persistence import default_model
+    from signatelec.measurement.ripple import find_ripple
+    from signatelec.measurement.traces import TraceError, prepare_trace
+
+    omega = 571.1
+    spall = {"location": "outer", "length_m": 0.73e-3, "depth_m": 54e-6, "angle_rad": -0.663}
+    scene = Scene.from_dict({"defects": [spall]}).with_overrides(
+        radial_load_n=7780.0, clearance_m=9.97e-6, omega_rad_s=omega
+    )
+    scene = apply_fidelity(scene, "fast")
+    scene = scene.with_overrides(duration_s=scene.setup_time_s + 0.23)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = _steady(scene)[-4000:]
+    r = clean * (1 + 0.002 * np.random.default_rng(seed).standard_normal(clean.size))
+    t = np.arange(r.size) / 20000.0
+    line = find_ripple(r, 20000.0, omega)
+    ratio = line.frequency_hz / line.expected_hz
+    # the case: a line elsewhere, at no harmonic, beside the ripple found where it should be
+    assert line.status == "elsewhere" and abs(ratio - round(ratio)) > 0.1, line
+    assert line.near is not None and line.near.frequency_hz == pytest.approx(
+        line.expected_hz, rel=0.005
+    )
+    model = default_model()
+    out = estimate(prepare_trace(t, r, omega), omega, model)
+    assert out["condition"] == "outer" and out["condition_confident"] is True
+    assert [n for n in out["notes"] if "read past" in n], out["notes"]
+    assert out["trace"]["ripple"] == "found" and out["trace"]["ripple_hz"] == pytest.approx(
+        line.expected_hz, rel=0.005
+    )
+    with pytest.raises(TraceError, match="speed is about"):
+        estimate(prepare_trace(t, r, 0.8 * omega), 0.8 * omega, model)

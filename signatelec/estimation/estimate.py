@@ -36,6 +36,7 @@ F_r MAPE 0.7 %, epsilon MAE 0.043, regime 70 % right; with --omega 20 % off 0.9 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from signatelec.config.bearing import Bearing
 from signatelec.config.constraints import HEALTHY
@@ -50,7 +51,7 @@ from signatelec.estimation.domain import (
 )
 from signatelec.estimation.features import trace_features
 from signatelec.estimation.models import DEFAULT_COVERAGE, LoadStateModel
-from signatelec.measurement.sanity import screen_trace
+from signatelec.measurement.sanity import ANY_FAULT, explains, screen_trace
 from signatelec.measurement.traces import TraceError
 from signatelec.physics.regimes import REGIMES
 
@@ -130,12 +131,20 @@ def estimate(
         # the strongest line is a defect's, not the ball-pass ripple: only a confident call of
         # that very condition explains it; otherwise it is a wrong --omega, as the layer says
         kind, name = screened.defect_line
-        if not (_confident_fault(condition) and condition["condition"] == kind):
+        if not (_confident_fault(condition) and explains(kind, condition["condition"])):
             raise TraceError(f"{trace.source}: {ripple.problem()}")
-        notes.append(
-            f"the strongest line ({ripple.frequency_hz:.1f} Hz) is the {name} line of the "
-            f"{kind} condition, not the ball-pass ripple"
-        )
+        if kind == ANY_FAULT:
+            notes.append(
+                f"the strongest line ({ripple.frequency_hz:.1f} Hz, {name}): read past, as "
+                f"the confident {condition['condition']} call explains it (a spall's impacts "
+                "put such lines in the trace)"
+            )
+            ripple = replace(ripple.near, beside=replace(ripple, near=None))
+        else:
+            notes.append(
+                f"the strongest line ({ripple.frequency_hz:.1f} Hz) is the {name} line of the "
+                f"{kind} condition, not the ball-pass ripple"
+            )
     # a trace the condition model calls faulty is answered by the load-state model that
     # learnt defective runs too (docs/diagnosis: F_r with a defect present)
     faulty = condition.get("condition") not in (None, HEALTHY)

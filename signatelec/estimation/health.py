@@ -54,7 +54,7 @@ from signatelec.estimation.condition import PROBABILITY, SEVERITY_TARGET
 from signatelec.estimation.diagnose import CONFIDENT_CONDITION, LINE_KEYS, assess_condition
 from signatelec.estimation.domain import refuse_score
 from signatelec.estimation.features import trace_features
-from signatelec.measurement.lines import defect_line_of
+from signatelec.measurement.sanity import explains, fault_line
 
 #: Trace between two assessments of the condition, s (module docstring).
 CONDITION_EVERY_S = 60.0
@@ -101,26 +101,22 @@ def defect_explains(
     learnt=None,
 ):
     """Whether the strongest line of the first ``screened`` samples of a block's ``trace``,
-    away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.lines.
-    defect_line_of`, of ``bearing``) that the condition ``model`` confidently calls on the
+    away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.sanity.
+    fault_line`, of ``bearing``) that the condition ``model`` confidently calls on the
     block's first ``window_s`` (its training traces' length), as ``estimate`` keeps a trace
     whose strongest line a confident call of that very condition explains; its load features
     read at the ball-pass line of ``learnt``, the bearing the model learnt (None: the seed's),
     as ``estimate`` reads them."""
     fs = trace.sample_rate_hz
     seg = trace.resistance_ohm[: int(round(window_s * fs))]
-    line = (
-        None
-        if model is None
-        else defect_line_of(ripple.frequency_hz, omega_rad_s, screened / fs, bearing)
-    )
+    line = None if model is None else fault_line(ripple, omega_rad_s, screened / fs, bearing)
     if line is None:
         return False
     mine = None if learnt is None else analyse_trace(seg, fs, omega_rad_s, bearing=learnt)
     feats = trace_features(seg, fs, omega_rad_s, analysis=mine)
     keys, _ = assess_window(seg, fs, omega_rad_s, feats, model, bearing=bearing)
-    p = keys.get(f"{PROBABILITY}{line[0]}")
-    return keys["condition"] == line[0] and p is not None and p >= CONFIDENT_CONDITION
+    p = keys.get(f"{PROBABILITY}{keys['condition']}")
+    return explains(line[0], keys["condition"]) and p is not None and p >= CONFIDENT_CONDITION
 
 
 def confident_faults(windows: pd.DataFrame) -> pd.Series:

@@ -42,7 +42,7 @@ from signatelec.estimation.models import (
     LoadStateModel,
 )
 from signatelec.measurement.band import N_HARMONICS
-from signatelec.measurement.sanity import screen_trace
+from signatelec.measurement.sanity import explains, screen_trace
 from signatelec.measurement.traces import TraceError, prepare_trace
 
 #: The trace features the model reads. The others are redundant for it (the median and the
@@ -461,7 +461,7 @@ def screened_traces(
         try:
             trace = prepare_trace(np.arange(len(r)) / fs, r, om, source=name, bearing=bearing)
             screened = screen_trace(trace, om, defect_lines=label is not None, bearing=bearing)
-            if screened.defect_line is not None and screened.defect_line[0] != label:
+            if screened.defect_line is not None and not explains(screened.defect_line[0], label):
                 raise TraceError(f"{name}: {screened.ripple.problem()}")
             kept.append(screened.trace.resistance_ohm)
             rows.append(i)

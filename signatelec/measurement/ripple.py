@@ -66,12 +66,10 @@ the nominal 0.2 % of the two searches.
    speed about 3.3 times lower. The one case left ambiguous: a bearing whose Z has a divisor
    k <= K (the 6208's 9 balls, k = 3) given a ``--omega`` k times the speed, where a line
    near FTF at the speed given outgrows the ripple (1 of its 120 traces at 3x the speed).
-   Not refused either: a ``--omega`` twice the speed of a trace whose ripple's 2nd harmonic
-   outgrows its fundamental (few loaded balls; 65 of 600 reads of 300 fast-DEM traces of six
-   bearings at 0.2 % noise), found where expected. Its odd harmonics then lie at 3/2, 5/2
-   and 7/2 f_exp, but the DEM shows such lines at the right speed too, a response at half
-   the ball-pass frequency (outer-race spalls, epsilon 0.23-0.47: 4 of 80 such traces),
-   so they cannot refuse a trace;
+   Nor a ``--omega`` twice the speed of a trace whose 2nd harmonic outgrows its fundamental
+   (few loaded balls: 65 of 600 such reads of 300 fast-DEM traces of six bearings): its odd
+   harmonics at 3/2, 5/2, 7/2 f_exp cannot refuse it, as outer-race spalls show lines there
+   at their own speed (4 of 80 fast-DEM traces at epsilon 0.23-0.47);
 5. otherwise the search near f_bp: ``"found"``, or ``"elsewhere"`` outside the tolerance, or
    ``"none"`` (the model's domain decides: :mod:`signatelec.estimation.estimate`);
 6. a trace answering ``"elsewhere"`` or ``"none"``, or found beside a stronger line (rule 4),
@@ -234,10 +232,11 @@ class Ripple:
     false-alarm probability, ``statistic`` its normalised power (a comb: the sum over
     harmonics), ``tolerance`` the accepted range of found / expected - 1; ``bearings``: the
     catalogue bearings whose ball-pass line it is at the speed given (``"elsewhere"``).
-    ``beside``: a
-    stronger line away from f_bp that is not the ripple of another speed (module rule 4, its
-    exception), as the ``"elsewhere"`` it would have been.
-    """
+    ``beside``: a stronger line away from f_bp that is not the ripple of another speed (rule
+    4's exception), as the ``"elsewhere"`` it would have been. ``near``: of an ``"elsewhere"``
+    rule 4 does not explain, the ripple found where the speed puts it all the same (rule 5),
+    its fundamental below :data:`UNIT_FALSE_ALARM`, nothing stronger below it: a condition
+    model may read the line past (:func:`signatelec.measurement.sanity.fault_line`)."""
 
     status: str
     omega_rad_s: float
@@ -251,6 +250,7 @@ class Ripple:
     unit: str | None = None
     beside: Ripple | None = None
     bearings: tuple[str, ...] = ()
+    near: Ripple | None = None
 
     @property
     def implied_omega_rad_s(self) -> float:
@@ -585,5 +585,14 @@ def _search(
                     )
                 ):
                     return replace(near, beside=Ripple("elsewhere", **line, **base))
-                return Ripple("elsewhere", **line, **base)
+                # the ripple where the speed puts it all the same, for a condition model to
+                # read the line past: its fundamental itself stands out, nothing stronger below
+                z_near = float(at(near.frequency_hz)) if near.status == "found" else 0.0
+                if (
+                    stats.f.sf(z_near, 2, 2 * m) >= UNIT_FALSE_ALARM
+                    or _overtone(z, df, near.frequency_hz, z_near, duration, n_harmonics)
+                    is not None
+                ):
+                    near = None
+                return Ripple("elsewhere", **line, **base, near=near)
     return comb()
