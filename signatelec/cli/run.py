@@ -197,17 +197,14 @@ def _warn_settling(scene, out: str) -> None:
     from signatelec.measurement.sanity import trim_transient
     from signatelec.measurement.traces import TraceError, prepare_trace
 
-    columns = ["time_s", "phase", "resistance_ohm"]
-    signals = Path(out) / "signals.parquet"
     if scene.numerics.fidelity == "quasistatic" or not scene.outputs.electrical:
         return  # no transient, or no level to read
-    df = pd.read_parquet(signals, columns=columns)
+    signals = Path(out) / "signals.parquet"
+    df = pd.read_parquet(signals, columns=["time_s", "phase", "resistance_ohm"])
     omega, bearing = scene.operating.omega_rad_s, scene.bearing
+    r, where = df["resistance_ohm"], str(signals)
     try:
-        trace = prepare_trace(
-            df["time_s"], df["resistance_ohm"], omega, str(signals), phase=df["phase"],
-            bearing=bearing,
-        )  # fmt: skip
+        trace = prepare_trace(df["time_s"], r, omega, where, phase=df["phase"], bearing=bearing)
     except TraceError:
         return  # too short a steady phase to read per ball pass, or no steady row
     try:

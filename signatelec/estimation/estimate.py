@@ -129,7 +129,8 @@ def estimate(
         return _result(condition, notes, trace, feats, ripple, model)
     if screened.defect_line is not None:
         # the strongest line is a defect's, not the ball-pass ripple: only a confident call of
-        # that very condition explains it; otherwise it is a wrong --omega, as the layer says
+        # that very condition explains it (of any fault, for a line at no defect's frequency
+        # beside the ripple found); otherwise it is a wrong --omega, as the layer says
         kind, name = screened.defect_line
         if not (_confident_fault(condition) and explains(kind, condition["condition"])):
             raise TraceError(f"{trace.source}: {ripple.problem()}")

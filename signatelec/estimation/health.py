@@ -104,7 +104,8 @@ def defect_explains(
     away from the ball-pass frequency, is a defect's (:func:`~signatelec.measurement.sanity.
     fault_line`, of ``bearing``) that the condition ``model`` confidently calls on the
     block's first ``window_s`` (its training traces' length), as ``estimate`` keeps a trace
-    whose strongest line a confident call of that very condition explains; its load features
+    whose strongest line a confident call of that very condition explains (of any fault, for
+    a line at no defect's frequency beside the ripple found); its load features
     read at the ball-pass line of ``learnt``, the bearing the model learnt (None: the seed's),
     as ``estimate`` reads them."""
     fs = trace.sample_rate_hz
