@@ -288,7 +288,7 @@ def test_a_settling_over_half_a_short_trace_is_trimmed(tmp_path):
     final level (0.5 %, module rule 1): the block noise is read on the last half, where the
     level is (0.04 % of it); read over all the blocks, the settling's own steps had made it
     0.2 %, the allowance 2 %, and passes 1.9 and 1.3 % off were kept."""
-    from signatelec.measurement.sanity import DRIFT_ALLOWANCE, trim_transient
+    from signatelec.measurement.settling import DRIFT_ALLOWANCE, trim_transient
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

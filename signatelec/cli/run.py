@@ -188,31 +188,36 @@ SETTLING_WARN_REL = 1e-3
 def _warn_settling(scene, out: str) -> None:
     """One line when the ring and cage still settle into the steady phase: its level, read per
     ball pass, departs at its start from the level it settles to, as ``estimate``'s set-up trim
-    reads a trace (:func:`~signatelec.measurement.sanity.trim_transient`), and moves the
+    reads a trace (:func:`~signatelec.measurement.settling.trim_transient`), and moves the
     steady mean resistance by more than :data:`SETTLING_WARN_REL` (a run of the automatic
-    duration at 3000 N with a 10 um clearance starts 2 % low, its mean 0.5 % low)."""
+    duration at 3000 N with a 10 um clearance starts 2 % low, its mean 0.5 % low). Numpy and
+    pyarrow only (read as the stream reads its steady means): a run imports neither pandas nor
+    scipy."""
     import numpy as np
-    import pandas as pd
+    import pyarrow.parquet as pq
 
-    from signatelec.measurement.sanity import trim_transient
-    from signatelec.measurement.traces import TraceError, prepare_trace
+    from signatelec.engines.results import record_rate_hz
+    from signatelec.engines.stream import arrow_numbers
+    from signatelec.measurement.settling import trim_transient
+    from signatelec.measurement.traces import Trace, TraceError
 
     if scene.numerics.fidelity == "quasistatic" or not scene.outputs.electrical:
         return  # no transient, or no level to read
     signals = Path(out) / "signals.parquet"
-    df = pd.read_parquet(signals, columns=["time_s", "phase", "resistance_ohm"])
-    omega, bearing = scene.operating.omega_rad_s, scene.bearing
-    r, where = df["resistance_ohm"], str(signals)
+    columns = ["time_s", "resistance_ohm"]  # (read_table would import pandas for its metadata)
+    table = pq.ParquetFile(signals).read(columns=columns, use_pandas_metadata=False)
+    t = arrow_numbers(table.column("time_s"))
+    steady = t > scene.setup_time_s + 1e-12  # (as SimulationResult.steady)
+    r = arrow_numbers(table.column("resistance_ohm"))[steady]
+    if r.size < 4 or not np.isfinite(r).all():
+        return
+    trace = Trace(t[steady] - t[steady][0], r, record_rate_hz(scene), str(signals))
     try:
-        trace = prepare_trace(df["time_s"], r, omega, where, phase=df["phase"], bearing=bearing)
-    except TraceError:
-        return  # too short a steady phase to read per ball pass, or no steady row
-    try:
-        kept = trim_transient(trace, omega, bearing=bearing)
+        kept = trim_transient(trace, scene.operating.omega_rad_s, bearing=scene.bearing)
     except TraceError as exc:
         found, effect = str(exc), ""
     else:
-        off = float(np.mean(trace.resistance_ohm) / np.mean(kept.resistance_ohm)) - 1.0
+        off = float(np.mean(r) / np.mean(kept.resistance_ohm)) - 1.0
         if abs(off) <= SETTLING_WARN_REL:
             return
         found = kept.repairs[-1]

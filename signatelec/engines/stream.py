@@ -79,11 +79,11 @@ class TableStream:
             writer.write_table(table)
         signals = tables["signals"]
         self.n_instants += signals.num_rows
-        steady = _numbers(signals.column("time_s")) > self.scene.setup_time_s + 1e-12
+        steady = arrow_numbers(signals.column("time_s")) > self.scene.setup_time_s + 1e-12
         for column in signals.column_names:
             if column == "phase":
                 continue
-            values = _numbers(signals.column(column))
+            values = arrow_numbers(signals.column(column))
             if values is None:
                 continue
             values = values[steady].astype(float, copy=False)
@@ -191,11 +191,11 @@ def _numpy_array(pa, values: np.ndarray):
     )
 
 
-#: Arrow types read back as numpy without pandas (:func:`_numbers`).
+#: Arrow types read back as numpy without pandas (:func:`arrow_numbers`).
 _NUMPY_TYPES = {"double": np.float64, "int32": np.int32, "int64": np.int64}
 
 
-def _numbers(column) -> np.ndarray | None:
+def arrow_numbers(column) -> np.ndarray | None:
     """A numeric Arrow column as numpy (nulls as NaN), None for another type. Its buffers are
     read directly: ``to_numpy`` would import pandas."""
     dtype = _NUMPY_TYPES.get(str(column.type))

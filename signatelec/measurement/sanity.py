@@ -4,23 +4,24 @@
 :func:`~signatelec.measurement.traces.prepare_trace` made uniform and finite (each step refuses
 with one line, :class:`~signatelec.measurement.traces.TraceError`):
 
-1. :func:`trim_transient`: a set-up transient (a measured start-up, a load step) is cut off, said
-   in one line, or the trace is refused; never averaged in. The level is read per ball pass
-   (block means over one kinematic period, where the ripple averages out); the steady level is
-   the median of the last half's blocks; a block departs from it when it is off by more than
-   :data:`STEP_SIGMAS` times the block-to-block noise (robust, from the first differences of
-   the last half's blocks: a settling that spans half a short trace's blocks had inflated
-   the noise read over all of them, and kept ball passes 1-2 % off) and
-   more than :data:`DRIFT_ALLOWANCE` of the level (five times the largest drift of the training
-   traces, a random walk of 0.1 % at the end of the window). The steady part starts after the
-   last departing block and must span :data:`~signatelec.measurement.band.MIN_BALL_PASSES`
-   (a trend moves the early blocks off the final level: it is cut off or refused alike).
-   With a condition model (``defect_lines``), departures that recur through the trace (in
-   :data:`RECURRENT_GROUPS` or more groups, not from its start, into its second half) are a
-   defect's events, a
-   spall on a ball most (once per cage revolution), and the trace is kept whole;
-   A simulation's set-up (the ``phase`` column of ``signatelec simulate``'s
-   ``signals.parquet``) is dropped earlier, by
+1. :func:`~signatelec.measurement.settling.trim_transient`: a set-up transient (a measured
+   start-up, a load step) is cut off, said in one line, or the trace is refused; never
+   averaged in. The level is read per ball pass (block means over one kinematic period,
+   where the ripple averages out); the steady level is the median of the last half's blocks;
+   a block departs from it when it is off by more than
+   :data:`~signatelec.measurement.settling.STEP_SIGMAS` times the block-to-block noise
+   (robust, from the first differences of the last half's blocks: a settling that spans half
+   a short trace's blocks had inflated the noise read over all of them, and kept ball passes
+   1-2 % off) and more than :data:`~signatelec.measurement.settling.DRIFT_ALLOWANCE` of the
+   level (five times the largest drift of the training traces, a random walk of 0.1 % at the
+   end of the window). The steady part starts after the last departing block and must span
+   :data:`~signatelec.measurement.band.MIN_BALL_PASSES` (a trend moves the early blocks off
+   the final level: it is cut off or refused alike). With a condition model
+   (``defect_lines``), departures that recur through the trace (in
+   :data:`~signatelec.measurement.settling.RECURRENT_GROUPS` or more groups, not from its
+   start, into its second half) are a defect's events, a spall on a ball most (once per cage
+   revolution), and the trace is kept whole. A simulation's set-up (the ``phase`` column of
+   ``signatelec simulate``'s ``signals.parquet``) is dropped earlier, by
    :func:`~signatelec.measurement.traces.prepare_trace`;
 2. :func:`check_level`, given the model's trained level range: a mean resistance outside it by
    more than :data:`LEVEL_MARGIN` is refused, naming the unit mix-up when a factor of 1000
@@ -51,32 +52,21 @@ with one line, :class:`~signatelec.measurement.traces.TraceError`):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from signatelec.config.constraints import HEALTHY
-from signatelec.measurement.band import MIN_BALL_PASSES
 from signatelec.measurement.lines import defect_line_of
 from signatelec.measurement.ripple import Ripple, find_ripple
+from signatelec.measurement.settling import trim_transient
 from signatelec.measurement.traces import Trace, TraceError
-from signatelec.physics.kinematics import expected_ball_pass_hz
 
-#: A block mean this many block-noise sigmas off the steady level departs from it...
-STEP_SIGMAS = 10.0
-#: ... if it is also off by more than this share of the level.
-DRIFT_ALLOWANCE = 0.005
 #: A level within this factor of the trained range is extrapolated with a note (R ~
 #: F_r^(-4/3), seed section 3: 1.25 in R is 1.18 in F_r, along Hertz's law).
 LEVEL_MARGIN = 1.25
 #: Unit mix-ups recognised in the level: factor -> the unit the column then holds.
 UNIT_FACTORS = {1e3: "mOhm", 1e-3: "kOhm", 1e6: "uOhm", 1e-6: "MOhm"}
-_MAD_TO_SIGMA = 1.4826
-
-
-#: Departures from the steady level in at least this many separate groups of ball passes,
-#: reaching the second half of the trace, recur as a defect's events do.
-RECURRENT_GROUPS = 2
 
 
 @dataclass(frozen=True)
@@ -91,67 +81,6 @@ class Screening:
     ripple: Ripple
     notes: tuple[str, ...] = ()
     defect_line: tuple[str, str] | None = None
-
-
-def recurrent(off: np.ndarray, n_blocks: int) -> bool:
-    """Whether the departing blocks ``off`` (indices among ``n_blocks``) recur through the
-    trace, as a defect's events do (a spall on a ball is in the load zone once per cage
-    revolution), rather than lead up to the steady part as a set-up transient, a step or a
-    trend does (those depart from the first block on): at least :data:`RECURRENT_GROUPS`
-    separate groups, none at the first block, the last in the second half."""
-    if off.size == 0:
-        return False
-    groups = 1 + int(np.count_nonzero(np.diff(off) > 1))
-    return groups >= RECURRENT_GROUPS and off[0] > 0 and off[-1] >= n_blocks // 2
-
-
-def trim_transient(
-    trace: Trace, omega_rad_s: float, *, events: bool = False, bearing=None
-) -> Trace:
-    """The steady part of a trace (module rules), what was cut said in one line of its
-    ``repairs``; TraceError when no steady part is long enough. With ``events`` (the caller
-    has a condition model to judge them), departures that recur through the trace
-    (:func:`recurrent`) are a defect's events, not a transient: the trace is kept whole."""
-    r, fs = trace.resistance_ohm, trace.sample_rate_hz
-    f_bp = expected_ball_pass_hz(omega_rad_s, bearing)
-    n_block = max(int(round(fs / f_bp)), 1)
-    n = r.size // n_block
-    if n < 4:
-        return trace
-    means = r[: n * n_block].reshape(n, n_block).mean(axis=1)
-    level = float(np.median(means[n // 2 :]))
-    diffs = np.diff(means[n // 2 :])
-    noise = _MAD_TO_SIGMA * float(np.median(np.abs(diffs - np.median(diffs)))) / np.sqrt(2.0)
-    allowed = max(STEP_SIGMAS * noise, DRIFT_ALLOWANCE * abs(level))
-    off = np.flatnonzero(np.abs(means - level) > allowed)
-    where = trace.source
-    if events and recurrent(off, n):
-        return trace
-    if off.size:
-        last = int(off[-1])
-        worst = int(off[np.argmax(np.abs(means[off] - level))])
-        start = (last + 1) * n_block
-        kept_passes = (r.size - start) / fs * f_bp
-        ratio = means[worst] / level if level else np.inf
-        step = f"{ratio - 1:+.1%}" if ratio < 2 else f"{ratio:,.0f}x"
-        if kept_passes < MIN_BALL_PASSES:
-            raise TraceError(
-                f"{where}: level not steady: off the final level by {step} at t = "
-                f"{worst * n_block / fs:.4g} s, up to t = {start / fs:.4g} s, far beyond the "
-                f"noise; the steady part left ({kept_passes:.1f} ball passes) is shorter than "
-                f"{MIN_BALL_PASSES:g}"
-            )
-        note = (
-            f"trimmed a transient: the first {start / fs * 1e3:.4g} ms (level off by up to "
-            f"{step}) dropped, {kept_passes:.1f} ball passes kept"
-        )
-        trace = replace(
-            trace,
-            time_s=trace.time_s[start:] - trace.time_s[start],
-            resistance_ohm=r[start:],
-            repairs=(*trace.repairs, note),
-        )
-    return trace
 
 
 def _ohm(value: float, unit: str | None = None) -> str:
