@@ -208,10 +208,10 @@ def _warn_settling(scene, out: str) -> None:
     table = pq.ParquetFile(signals).read(columns=columns, use_pandas_metadata=False)
     t = arrow_numbers(table.column("time_s"))
     steady = t > scene.setup_time_s + 1e-12  # (as SimulationResult.steady)
-    r = arrow_numbers(table.column("resistance_ohm"))[steady]
+    t, r = t[steady], arrow_numbers(table.column("resistance_ohm"))[steady]
     if r.size < 4 or not np.isfinite(r).all():
         return
-    trace = Trace(t[steady] - t[steady][0], r, record_rate_hz(scene), str(signals))
+    trace = Trace(t - t[0], r, record_rate_hz(scene), str(signals))
     try:
         kept = trim_transient(trace, scene.operating.omega_rad_s, bearing=scene.bearing)
     except TraceError as exc:
