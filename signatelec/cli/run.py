@@ -196,7 +196,7 @@ def _warn_settling(scene, out: str) -> None:
     import numpy as np
     import pyarrow.parquet as pq
 
-    from signatelec.engines.results import record_rate_hz
+    from signatelec.engines.results import in_steady_phase, record_rate_hz
     from signatelec.engines.stream import arrow_numbers
     from signatelec.measurement.settling import trim_transient
     from signatelec.measurement.traces import Trace, TraceError
@@ -207,7 +207,7 @@ def _warn_settling(scene, out: str) -> None:
     columns = ["time_s", "resistance_ohm"]  # (read_table would import pandas for its metadata)
     table = pq.ParquetFile(signals).read(columns=columns, use_pandas_metadata=False)
     t = arrow_numbers(table.column("time_s"))
-    steady = t > scene.setup_time_s + 1e-12  # (as SimulationResult.steady)
+    steady = in_steady_phase(t, scene)
     t, r = t[steady], arrow_numbers(table.column("resistance_ohm"))[steady]
     if r.size < 4 or not np.isfinite(r).all():
         return

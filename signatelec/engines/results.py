@@ -52,6 +52,13 @@ def phase_times(scene: Scene) -> tuple[float, float, float]:
     return t1, t2, t3
 
 
+def in_steady_phase(time_s, scene: Scene, settle_s: float = 0.0):
+    """Whether each recorded instant of ``time_s`` (an array or a Series) lies in the steady
+    phase of a run of ``scene``, from ``settle_s`` after the set-up ends (an instant recorded at
+    the set-up's end, within rounding, belongs to the set-up)."""
+    return time_s > scene.setup_time_s + settle_s + 1e-12
+
+
 def record_rate_hz(scene: Scene) -> float:
     """The rate a run of ``scene`` records at, Hz: an instant every ``scene.record_every`` steps.
     It is ``numerics.sample_rate_hz`` when dt divides the record period a whole number of times
@@ -86,7 +93,7 @@ class SimulationResult:
     def steady(self, table: str = "signals", settle_s: float = 0.0) -> pd.DataFrame:
         """Rows of the steady-running phase, from ``settle_s`` after the set-up ends."""
         df = self._table(table)
-        return df[df["time_s"] > self.scene.setup_time_s + settle_s + 1e-12]
+        return df[in_steady_phase(df["time_s"], self.scene, settle_s)]
 
     def steady_means(self) -> dict[str, float]:
         """Mean of each numeric signal column over the steady phase (NaN skipped)."""

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from signatelec.config.scene import Scene
-from signatelec.engines.results import PHASES
+from signatelec.engines.results import PHASES, in_steady_phase
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -79,7 +79,7 @@ class TableStream:
             writer.write_table(table)
         signals = tables["signals"]
         self.n_instants += signals.num_rows
-        steady = arrow_numbers(signals.column("time_s")) > self.scene.setup_time_s + 1e-12
+        steady = in_steady_phase(arrow_numbers(signals.column("time_s")), self.scene)
         for column in signals.column_names:
             if column == "phase":
                 continue
