@@ -637,6 +637,44 @@ def test_a_spall_that_takes_the_load_out_of_domain_is_a_condition_change():
     assert changes[0]["time_s"] == pytest.approx(60.0, abs=1.0)
 
 
+def test_a_spall_out_of_the_load_models_domain_ends_the_stretch_with_few_assessments():
+    """As above, the condition assessed every 20 s: three assessments a side, too few at the
+    record's ends for the condition's own detector (the code before reported one stretch over
+    the record, the load state of its first half and, on a tie of calls, healthy, without an
+    alarm). The run of windows the load model cannot read is a stretch of its own: the change
+    at its first window, the condition alarm there, each stretch with its own assessments."""
+    w = _table(lambda t: 5000.0 if t < 60.0 else None, lambda t: KINDS[2 * (t >= 60.0)], 20.0, 120)
+    stretches, changes, alarms = stretches_and_changes(w, 0.2)
+    assert [s["condition"] for s in stretches] == ["healthy", "inner"]
+    assert [s["condition_assessments"] for s in stretches] == [3, 3]
+    assert "radial_load_n" in stretches[0] and "radial_load_n" not in stretches[1]
+    assert [c["time_s"] for c in changes] == [60.0]
+    assert changes[0]["what"].startswith("the load model cannot read the windows from here")
+    assert [(a["kind"], a["time_s"]) for a in alarms] == [("condition", 60.0)]
+
+
+@pytest.mark.parametrize("unread_s", [4.8, 5.0])
+def test_a_span_the_load_model_cannot_read_is_a_stretch_from_5_s(unread_s):
+    """A healthy bearing at 5000 N whose windows from 30 s lie out of the load model's domain
+    for 4.8 or 5 s (a disturbance of the trace): shorter than 5 s the stretch spans it; from
+    5 s it is a stretch of its own without a load estimate, between two changes (its first
+    window, the first window read again) that raise no alarm (the condition is the same)."""
+    w = _table(
+        lambda t: None if 30.0 <= t < 30.0 + unread_s - 1e-9 else 5000.0,
+        lambda t: KINDS[0],
+        2.0,
+        90,
+    )
+    stretches, changes, alarms = stretches_and_changes(w, 0.2)
+    assert alarms == []
+    if unread_s < 5.0:
+        assert len(stretches) == 1 and changes == []
+        return
+    assert [c["time_s"] for c in changes] == pytest.approx([30.0, 35.0])
+    assert [("radial_load_n" in s) for s in stretches] == [True, False, True]
+    assert [s["condition"] for s in stretches] == ["healthy"] * 3
+
+
 def test_condition_changes_without_a_usable_window_between_are_kept_apart():
     """No usable load window at all; healthy, inner from 100 s, healthy again from 170 s: two
     changes, three stretches."""
@@ -1131,3 +1169,33 @@ def test_a_spall_whose_impacts_put_a_line_at_no_harmonic_is_alarmed(tmp_path):
     alarms = [a for a in summary["alarms"] if a["kind"] == "condition"]
     assert len(alarms) == 1 and alarms[0]["what"] == "condition healthy -> outer"
     assert alarms[0]["time_s"] == pytest.approx(10.0, abs=1.0)
+
+
+def test_a_spall_that_takes_the_windows_out_of_the_load_models_domain_ends_the_stretch(tmp_path):
+    """9 s of the seed's bearing healthy, then 9 s with the same outer-race spall (the fast DEM,
+    0.2 % noise), the condition assessed every 3 s: every window of the spall lies out of the
+    load model's domain. The stretch ends at the spall's first window: the healthy one's F_r
+    within 1 % of the run's 7780 N (measured -0.3 %) from its own three assessments, the
+    spall's stretch outer from its four (the first at the onset), answered by the faulty load
+    model, and the condition alarm at the onset within one window (0.2 s)."""
+    spall = {"location": "outer", "length_m": 0.73e-3, "depth_m": 54e-6, "angle_rad": -0.663}
+    r = np.concatenate([_fast_dem_steady([], 9.0), _fast_dem_steady([spall], 9.0)])
+    r = r * (1 + NOISE * np.random.default_rng(4).standard_normal(r.size))
+    path = tmp_path / "spall.parquet"
+    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
+    out = tmp_path / "out"
+    args = ["monitor", str(path), "--omega", "571.1", "--condition-every", "3"]
+    assert run_main([*args, "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    windows = pd.read_parquet(out / "windows.parquet")
+    spalled = windows["start_s"] >= 9.0
+    assert windows.loc[spalled, "status"].str.startswith("out of domain").all()
+    first, last = summary["stretches"][0], summary["stretches"][-1]
+    assert first["condition"] == "healthy" and last["condition"] == "outer"
+    assert (first["condition_assessments"], last["condition_assessments"]) == (3, 4)
+    assert last["load_model"] == "faulty"
+    assert first["end_s"] == pytest.approx(9.0, abs=0.2)
+    assert first["radial_load_n"] == pytest.approx(7780.0, rel=0.01)
+    alarms = [a for a in summary["alarms"] if a["kind"] == "condition"]
+    assert len(alarms) == 1 and alarms[0]["what"] == "condition healthy -> outer"
+    assert alarms[0]["time_s"] == pytest.approx(9.0, abs=0.2)

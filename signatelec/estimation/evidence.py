@@ -54,6 +54,8 @@ from signatelec.estimation.changes import (
     change_time,
     effective_fraction,
     rate_shares,
+    unread_changes,
+    unread_runs,
 )
 from signatelec.estimation.condition import PROBABILITY
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
@@ -333,11 +335,14 @@ def stretches_and_changes(
     load = [(k, change_time(windows, good, k), p) for k, p in load]
     cond = condition_changes(good, assessed, condition_rate)
     found = [(k, _after_gap(t, gaps)[0], p, c) for k, t, p, c in _merged(load, cond)]
+    found, unread = unread_changes(found, unread_runs(windows), good, windows)
     rows = np.maximum.accumulate([c[0] for c in found]).tolist() if found else []
     edges = [0, *rows, len(good)]
     times = [c[1] for c in found]
-    cuts = [t for _, t, _, _ in cond]  # the condition's own segments: a stretch takes its own
-    segment = np.searchsorted(cuts, assessed["start_s"].to_numpy(float)) if cuts else None
+    # the condition's own segments, and the unread runs': a stretch takes its own assessments
+    cuts = sorted([t for _, t, _, _ in cond] + list(unread))
+    # (an assessment at a cut, the first window an unread run holds, is the run's)
+    segment = np.searchsorted(cuts, assessed["start_s"].to_numpy(float), "right") if cuts else None
     frames = [f for f in (good, assessed) if len(f)]
     first = min(float(f["start_s"].iloc[0]) for f in frames)
     bounds = [first, *times, max(float(f["end_s"].iloc[-1]) for f in frames)]
@@ -385,6 +390,8 @@ def stretches_and_changes(
         raised = alarms(before, after, t, p, load_threshold, condition=cond_changed)
         moved = _speed_moved(before, after)
         what = "; ".join(a["what"] for a in raised) or _described(before, after)
+        if t in unread:
+            what = f"{unread[t]}; {what}"
         what += f"; {moved}" if moved else ""
         for a in raised:
             a["change"] = i  # the change between stretches i and i + 1
