@@ -529,10 +529,10 @@ def draw(windows: pd.DataFrame, summary: dict, path: Path) -> None:
                     lw=0.8,
                     linestyles="--",
                 )
+    one = {"stretches": "stretch", "changes": "change", "alarms": "alarm"}
+    counts = [f"{len(summary[k])} {one[k] if len(summary[k]) == 1 else k}" for k in one]
     axes[0].set_title(
-        f"{len(summary['stretches'])} stretches, {len(summary['changes'])} changes, "
-        f"{len(summary['alarms'])} alarms (dashed: red load, purple regime/condition)",
-        fontsize=9,
+        f"{', '.join(counts)} (dashed: red load, purple regime/condition)", fontsize=9
     )
     save_figure(fig, path)
 
