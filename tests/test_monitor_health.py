@@ -1199,3 +1199,24 @@ def test_a_spall_that_takes_the_windows_out_of_the_load_models_domain_ends_the_s
     alarms = [a for a in summary["alarms"] if a["kind"] == "condition"]
     assert len(alarms) == 1 and alarms[0]["what"] == "condition healthy -> outer"
     assert alarms[0]["time_s"] == pytest.approx(9.0, abs=0.2)
+
+
+def test_the_last_window_assessed_after_its_batch_was_filed_may_name_a_line(tmp_path):
+    """200 s of the seed's bearing (1000 windows, one batch), the outer-race spall in its last
+    10 s, the condition assessed once a minute: the record's last window is assessed after
+    its batch was filed, and its spall's line (bpfo) went into a column that every earlier
+    assessment had left empty (healthy: no line): pandas refused a string into that float
+    column and the monitor ended in a traceback. It reads the record through, the line named
+    in the last window's row."""
+    spall = {"location": "outer", "length_m": 0.73e-3, "depth_m": 54e-6, "angle_rad": -0.663}
+    r = np.concatenate([_fast_dem_steady([], 190.0), _fast_dem_steady([spall], 10.0)])
+    r = r * (1 + NOISE * np.random.default_rng(5).standard_normal(r.size))
+    path = tmp_path / "late.parquet"
+    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
+    out = tmp_path / "out"
+    assert run_main(["monitor", str(path), "--omega", "571.1", "--out", str(out), "--quiet"]) == 0
+    windows = pd.read_parquet(out / "windows.parquet")
+    assessed = windows[windows["condition"].notna()]
+    assert assessed["start_s"].tolist() == pytest.approx([0.0, 60.0, 120.0, 180.0, 199.8])
+    assert assessed["condition_line"].iloc[:-1].isna().all()
+    assert assessed["condition_line"].iloc[-1] == "bpfo"

@@ -371,6 +371,10 @@ def set_filed(parts: list[pd.DataFrame], start_s: float, values: dict) -> None:
         at = part["start_s"] == start_s
         if at.any():
             for key, value in values.items():
+                if key in part and isinstance(value, str) and part[key].dtype != object:
+                    # a column no filed window had a text for (all None: read as float) takes
+                    # one: pandas refuses a string into a float column
+                    part[key] = part[key].astype(object)
                 part.loc[at, key] = value
             return
 
