@@ -164,7 +164,8 @@ def main() -> None:
                 "radial_load_n": run.radial_load_n,
                 "alarms": len(condition_alarms),
                 "alarms_p90": sum(a["probability"] >= 0.9 for a in condition_alarms),
-                "named": near[0]["what"].split(" -> ")[-1] if near else None,
+                # "condition healthy -> outer", then what else moved ("; speed ...")
+                "named": near[0]["what"].split(";")[0].split(" -> ")[-1] if near else None,
                 "probability": near[0]["probability"] if near else np.nan,
                 "delay_s": near[0]["time_s"] - onset if near else np.nan,
                 "alarms_p90_prior": sum(p >= 0.9 for p in prior_p),

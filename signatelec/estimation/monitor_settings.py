@@ -5,6 +5,7 @@ before any trace is read; the speed a block or a window is read at (:func:`omega
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -371,9 +372,10 @@ def set_filed(parts: list[pd.DataFrame], start_s: float, values: dict) -> None:
         at = part["start_s"] == start_s
         if at.any():
             for key, value in values.items():
-                if key in part and isinstance(value, str) and part[key].dtype != object:
+                number = isinstance(value, numbers.Real) and not isinstance(value, bool)
+                if key in part and not number and value is not None and part[key].dtype != object:
                     # a column no filed window had a text for (all None: read as float) takes
-                    # one: pandas refuses a string into a float column
+                    # one: pandas refuses a string or a bool into a float column
                     part[key] = part[key].astype(object)
                 part.loc[at, key] = value
             return
