@@ -675,6 +675,23 @@ def test_a_span_the_load_model_cannot_read_is_a_stretch_from_5_s(unread_s):
     assert [s["condition"] for s in stretches] == ["healthy"] * 3
 
 
+def test_a_spall_whose_windows_fall_in_and_out_of_the_domain_is_one_stretch():
+    """Inner from 60 s, its windows out of the load model's domain in runs of 10 s every 20 s
+    (as a tiled DEM ball spall's are, by how its pulses fall in the windows): one change, at
+    the onset; the runs do not cut the spall's stretch (a rule that cut at every run's ends
+    made 25 stretches of it, most without an assessment)."""
+    w = _table(
+        lambda t: None if t >= 60.0 and int((t - 60.0) // 10.0) % 2 == 0 else 5000.0,
+        lambda t: KINDS[2 * (t >= 60.0)],
+        2.0,
+        300,
+    )
+    stretches, changes, alarms = stretches_and_changes(w, 0.2)
+    assert [s["condition"] for s in stretches] == ["healthy", "inner"]
+    assert [round(c["time_s"]) for c in changes] == [60]
+    assert [a["kind"] for a in alarms] == ["condition"]
+
+
 def test_condition_changes_without_a_usable_window_between_are_kept_apart():
     """No usable load window at all; healthy, inner from 100 s, healthy again from 170 s: two
     changes, three stretches."""

@@ -329,65 +329,69 @@ def change_points(
     return [(int(rows[k]), 1.0 - p_value) for k, p_value in second]
 
 
-#: Shortest run of consecutive windows out of the load model's domain that is a span of its
-#: own (:func:`unread_runs`), s: a spall's pulses or a state the model never learnt keep every
-#: window out; a state at the domain's edge whose windows fall out of it half the time stays
-#: out for 5 s (25 windows of 0.2 s) once in ~3e7 windows.
+#: Shortest run of consecutive windows out of the load model's domain that can be a span of its
+#: own (:func:`unread_changes`), s: a spall's pulses or a state the model never learnt keep
+#: every window out; a state at the domain's edge whose windows fall out of it half the time
+#: stays out for 5 s (25 windows of 0.2 s) once in ~3e7 windows.
 UNREAD_MIN_S = 5.0
+#: Largest share of a segment's other windows out of the domain beside such a run: a spall
+#: whose windows fall in and out of the domain (runs of 5-20 s, by how its pulses fall in
+#: them) leaves many, and its segment is one state the load model reads in part.
+UNREAD_OTHER_SHARE = 0.1
+#: What the changes at the ends of such a run say.
+LOST = "the load model cannot read the windows from here (out of its domain)"
+READ = "the load model reads the windows again"
 
 
-def unread_runs(windows: pd.DataFrame) -> list[tuple[float, float]]:
-    """[(start, end)] of each run of consecutive windows out of the load model's domain (status
-    "out of domain") that spans at least :data:`UNREAD_MIN_S` and 2 :data:`MIN_SEGMENT`
-    windows, in time order: where the load state can no longer be read, the stretch before ends
-    (the change detector reads the usable windows only, and a stretch had spanned such a run
-    with the state of the windows before it)."""
-    if windows.empty or "status" not in windows:
-        return []
+def unread_changes(found: list, good: pd.DataFrame, windows: pd.DataFrame):
+    """(changes, {time: what}): the changes ``found`` [(row of the usable windows ``good`` where
+    the next stretch starts, time, probability, whether the condition changed)] with one at
+    each end of a run of windows the load model cannot read (status "out of domain") of at
+    least :data:`UNREAD_MIN_S` and 2 :data:`MIN_SEGMENT` windows, the only such run of its
+    segment between two changes, whose other windows are read (at most
+    :data:`UNREAD_OTHER_SHARE` of them out of the domain), in time order; an end within a
+    window of the segment's own change is that change. The change detector reads the usable
+    windows only, and a stretch had spanned a spall that took every window out of the domain,
+    with the load state of the windows before it and the condition of the assessments of both.
+    Each such change has probability 1 (the windows' status, not a statistic) and is a change
+    of condition too, whose alarm the two sides' assessments raise where their calls differ."""
+    if good.empty or "status" not in windows:
+        return found, {}
     w = windows.sort_values("start_s")
     out = w["status"].astype(str).str.startswith("out of domain").to_numpy()
+    if not out.any():
+        return found, {}
     start, end = w["start_s"].to_numpy(float), w["end_s"].to_numpy(float)
+    window = float(np.median(end - start))
     edges = np.flatnonzero(np.diff(np.r_[0, out.astype(np.int8), 0]))
-    return [
+    runs = [
         (float(start[a]), float(end[b - 1]))
         for a, b in zip(edges[::2], edges[1::2], strict=True)
         if b - a >= 2 * MIN_SEGMENT and end[b - 1] - start[a] >= UNREAD_MIN_S
     ]
-
-
-def unread_changes(found: list, runs: list, good: pd.DataFrame, windows: pd.DataFrame):
-    """(changes, {time: what}): the changes ``found`` [(row of the usable windows ``good`` where
-    the next stretch starts, time, probability, whether the condition changed)] with one where
-    each run of windows the load model cannot read (``runs``: :func:`unread_runs`) starts after
-    usable windows or ends before them, in time order: probability 1 (the windows' status, not
-    a statistic), unless a change lies within a window of it (which then holds it); each is a
-    change of condition too, whose alarm the two sides' assessments raise where their calls
-    differ."""
-    if not runs or good.empty:
-        return found, {}
-    window = float((windows["end_s"] - windows["start_s"]).median())
-    good_start, good_end = good["start_s"].to_numpy(float), good["end_s"].to_numpy(float)
-    out, unread = list(found), {}
-    for a, b in runs:
-        for t, there, what in (
-            (
-                a,
-                good_end <= a + 1e-9,
-                "the load model cannot read the windows from here (out of its domain)",
-            ),
-            (b, good_start >= b - 1e-9, "the load model reads the windows again"),
-        ):
-            if not there.any():
-                continue
-            near = [i for i, c in enumerate(out) if abs(c[1] - t) <= window + 1e-9]
-            if near:
-                i = min(near, key=lambda i: abs(out[i][1] - t))
-                out[i] = (*out[i][:3], True)
-                unread[out[i][1]] = what
-                continue
-            out.append((int(np.searchsorted(good_start, t - 1e-9)), t, 1.0, True))
-            unread[t] = what
-    return sorted(out, key=lambda c: c[1]), unread
+    found = sorted(found, key=lambda c: c[1])
+    bounds = [-math.inf, *(c[1] for c in found), math.inf]
+    good_start = good["start_s"].to_numpy(float)
+    added, unread = [], {}
+    for i, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
+        inside = [r for r in runs if lo - window < r[0] and r[1] < hi + window]
+        if len(inside) != 1:
+            continue
+        a, b = inside[0]
+        segment = (start >= lo - 1e-9) & (end <= hi + 1e-9)
+        others = segment & ((end <= a + 1e-9) | (start >= b - 1e-9))
+        if others.any() and out[others].mean() > UNREAD_OTHER_SHARE:
+            continue
+        ends = ((a, i - 1, lo, end <= a + 1e-9, LOST), (b, i, hi, start >= b - 1e-9, READ))
+        for t, j, bound, side, what in ends:
+            if abs(t - bound) <= window + 1e-9:  # at the segment's change: it holds the run's end
+                if 0 <= j < len(found):
+                    found[j] = (*found[j][:3], True)
+                    unread[found[j][1]] = what
+            elif (segment & side).any():
+                added.append((int(np.searchsorted(good_start, t - 1e-9)), t, 1.0, True))
+                unread[t] = what
+    return sorted([*found, *added], key=lambda c: c[1]), unread
 
 
 def change_time(windows: pd.DataFrame, good: pd.DataFrame, k: int) -> float:

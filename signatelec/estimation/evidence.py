@@ -55,7 +55,6 @@ from signatelec.estimation.changes import (
     effective_fraction,
     rate_shares,
     unread_changes,
-    unread_runs,
 )
 from signatelec.estimation.condition import PROBABILITY
 from signatelec.estimation.estimate import CONFIDENT_PROBABILITY
@@ -335,7 +334,7 @@ def stretches_and_changes(
     load = [(k, change_time(windows, good, k), p) for k, p in load]
     cond = condition_changes(good, assessed, condition_rate)
     found = [(k, _after_gap(t, gaps)[0], p, c) for k, t, p, c in _merged(load, cond)]
-    found, unread = unread_changes(found, unread_runs(windows), good, windows)
+    found, unread = unread_changes(found, good, windows)
     rows = np.maximum.accumulate([c[0] for c in found]).tolist() if found else []
     edges = [0, *rows, len(good)]
     times = [c[1] for c in found]
