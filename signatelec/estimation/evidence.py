@@ -32,6 +32,10 @@ windows, is the call most of them share, with their mean probabilities
 speed and raises no alarm is the speed's, and its two stretches are joined
 (:func:`_join_speed_changes`): a run-up at a constant load is one stretch.
 
+**Windows the load model cannot read**: the detector reads the usable windows only; a run of
+windows out of the load model's domain that is the one such run of its segment among windows
+it reads is a stretch of its own (:func:`~signatelec.estimation.changes.unread_changes`).
+
 **Alarms** (:func:`alarms`): at each change, a load change beyond ``load_threshold`` (with the
 probability that the stretches' F_r differ by more, from their scatter parts), a change of
 regime or of condition (the probability that the two stretches' classes differ).
