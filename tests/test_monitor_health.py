@@ -1163,6 +1163,23 @@ def _fast_dem_steady(defects: list, seconds: float) -> np.ndarray:
     return np.tile(one, int(np.ceil(seconds * FS / one.size)))[: int(seconds * FS)]
 
 
+#: The 0.73 mm outer-race spall in the load zone of the monitored spall records.
+SPALL = {"location": "outer", "length_m": 0.73e-3, "depth_m": 54e-6, "angle_rad": -0.663}
+
+
+def _monitored_spall(tmp_path, healthy_s: float, spalled_s: float, seed: int, *options):
+    """(summary, windows) of ``signatelec monitor`` (``options`` added) on ``healthy_s`` of
+    :func:`_fast_dem_steady` healthy, then ``spalled_s`` with :data:`SPALL`, 0.2 % noise."""
+    r = np.concatenate([_fast_dem_steady([], healthy_s), _fast_dem_steady([SPALL], spalled_s)])
+    r = r * (1 + NOISE * np.random.default_rng(seed).standard_normal(r.size))
+    path = tmp_path / "spall.parquet"
+    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
+    out = tmp_path / "out"
+    args = ["monitor", str(path), "--omega", "571.1", *options, "--out", str(out), "--quiet"]
+    assert run_main(args) == 0
+    return json.loads((out / "summary.json").read_text()), pd.read_parquet(out / "windows.parquet")
+
+
 def test_a_spall_whose_impacts_put_a_line_at_no_harmonic_is_alarmed(tmp_path):
     """10 s of the seed's bearing healthy, then 10 s with a 0.73 mm outer-race spall in the
     load zone (the fast DEM, 0.2 % noise): the spall puts a line at 3.76 f_bp, at no harmonic
@@ -1171,16 +1188,7 @@ def test_a_spall_whose_impacts_put_a_line_at_no_harmonic_is_alarmed(tmp_path):
     ripple still stands where the speed puts it and the condition model calls outer: the
     spall's stretch is outer, alarmed within the assessments' 1 s cadence of its onset, and no
     window is refused."""
-    spall = {"location": "outer", "length_m": 0.73e-3, "depth_m": 54e-6, "angle_rad": -0.663}
-    r = np.concatenate([_fast_dem_steady([], 10.0), _fast_dem_steady([spall], 10.0)])
-    r = r * (1 + NOISE * np.random.default_rng(3).standard_normal(r.size))
-    path = tmp_path / "spall.parquet"
-    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
-    out = tmp_path / "out"
-    args = ["monitor", str(path), "--omega", "571.1", "--condition-every", "1"]
-    assert run_main([*args, "--out", str(out), "--quiet"]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    windows = pd.read_parquet(out / "windows.parquet")
+    summary, windows = _monitored_spall(tmp_path, 10.0, 10.0, 3, "--condition-every", "1")
     assert not windows["status"].astype(str).str.startswith("refused").any()
     assert summary["stretches"][-1]["condition"] == "outer"
     alarms = [a for a in summary["alarms"] if a["kind"] == "condition"]
@@ -1195,16 +1203,7 @@ def test_a_spall_that_takes_the_windows_out_of_the_load_models_domain_ends_the_s
     within 1 % of the run's 7780 N (measured -0.3 %) from its own three assessments, the
     spall's stretch outer from its four (the first at the onset), answered by the faulty load
     model, and the condition alarm at the onset within one window (0.2 s)."""
-    spall = {"location": "outer", "length_m": 0.73e-3, "depth_m": 54e-6, "angle_rad": -0.663}
-    r = np.concatenate([_fast_dem_steady([], 9.0), _fast_dem_steady([spall], 9.0)])
-    r = r * (1 + NOISE * np.random.default_rng(4).standard_normal(r.size))
-    path = tmp_path / "spall.parquet"
-    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
-    out = tmp_path / "out"
-    args = ["monitor", str(path), "--omega", "571.1", "--condition-every", "3"]
-    assert run_main([*args, "--out", str(out), "--quiet"]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    windows = pd.read_parquet(out / "windows.parquet")
+    summary, windows = _monitored_spall(tmp_path, 9.0, 9.0, 4, "--condition-every", "3")
     spalled = windows["start_s"] >= 9.0
     assert windows.loc[spalled, "status"].str.startswith("out of domain").all()
     first, last = summary["stretches"][0], summary["stretches"][-1]
@@ -1225,14 +1224,7 @@ def test_the_last_window_assessed_after_its_batch_was_filed_may_name_a_line(tmp_
     assessment had left empty (healthy: no line): pandas refused a string into that float
     column and the monitor ended in a traceback. It reads the record through, the line named
     in the last window's row."""
-    spall = {"location": "outer", "length_m": 0.73e-3, "depth_m": 54e-6, "angle_rad": -0.663}
-    r = np.concatenate([_fast_dem_steady([], 190.0), _fast_dem_steady([spall], 10.0)])
-    r = r * (1 + NOISE * np.random.default_rng(5).standard_normal(r.size))
-    path = tmp_path / "late.parquet"
-    pd.DataFrame({"time_s": np.arange(r.size) / FS, "resistance_ohm": r}).to_parquet(path)
-    out = tmp_path / "out"
-    assert run_main(["monitor", str(path), "--omega", "571.1", "--out", str(out), "--quiet"]) == 0
-    windows = pd.read_parquet(out / "windows.parquet")
+    _, windows = _monitored_spall(tmp_path, 190.0, 10.0, 5)
     assessed = windows[windows["condition"].notna()]
     assert assessed["start_s"].tolist() == pytest.approx([0.0, 60.0, 120.0, 180.0, 199.8])
     assert assessed["condition_line"].iloc[:-1].isna().all()
