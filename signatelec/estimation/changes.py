@@ -44,6 +44,8 @@ import pandas as pd
 from numba import njit
 from scipy import stats
 
+from signatelec.measurement.traces import true_runs
+
 #: Fewest windows on either side of a change.
 MIN_SEGMENT = 3
 #: Default expected number of false changes per hour of trace.
@@ -363,10 +365,9 @@ def unread_changes(found: list, good: pd.DataFrame, windows: pd.DataFrame):
         return found, {}
     start, end = w["start_s"].to_numpy(float), w["end_s"].to_numpy(float)
     window = float(np.median(end - start))
-    edges = np.flatnonzero(np.diff(np.r_[0, out.astype(np.int8), 0]))
     runs = [
         (float(start[a]), float(end[b - 1]))
-        for a, b in zip(edges[::2], edges[1::2], strict=True)
+        for a, b in true_runs(out)
         if b - a >= 2 * MIN_SEGMENT and end[b - 1] - start[a] >= UNREAD_MIN_S
     ]
     found = sorted(found, key=lambda c: c[1])

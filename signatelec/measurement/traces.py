@@ -157,7 +157,7 @@ def time_text(t_s: float) -> str:
     return f"{t_s:.6f}".rstrip("0").rstrip(".") if math.isfinite(t_s) else str(t_s)
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """(start, stop) of each run of True in ``mask``."""
     if not mask.any():
         return []
@@ -302,7 +302,7 @@ def prepare_trace(
         if cut:
             repairs.append(f"cut {lo + r.size - hi} missing samples at the ends")
             t, r, bad = t[lo:hi], r[lo:hi], bad[lo:hi]
-        for a, b in _runs(bad):
+        for a, b in true_runs(bad):
             gap = t[b] - t[a - 1]
             if gap > max_gap_s:
                 raise TraceError(
